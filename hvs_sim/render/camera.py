@@ -1,0 +1,47 @@
+"""Pinhole camera model in OpenCV convention: intrinsics from MuJoCo's fovy, and projection.
+
+Pixel convention: integer coordinates are pixel centres. MuJoCo puts the principal point at the
+image centre, which is ((W − 1) / 2, (H − 1) / 2) in that convention; square pixels.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hvs_sim.geometry import mujoco_to_opencv
+
+
+def intrinsics(width: int, height: int, fovy_deg: float) -> np.ndarray:
+    """3×3 K of a MuJoCo camera (fovy is the vertical field of view in degrees)."""
+    f = 0.5 * height / np.tan(np.radians(fovy_deg) / 2)
+    return np.array([[f, 0.0, (width - 1) / 2], [0.0, f, (height - 1) / 2], [0.0, 0.0, 1.0]])
+
+
+@dataclass(frozen=True)
+class CameraPose:
+    """Camera pose in the world, OpenCV convention: p_world = R @ p_cam + t."""
+
+    R: np.ndarray
+    t: np.ndarray
+
+    @staticmethod
+    def from_mujoco(xpos: np.ndarray, xmat: np.ndarray) -> "CameraPose":
+        return CameraPose(R=mujoco_to_opencv(xmat), t=np.asarray(xpos, float).copy())
+
+    def to_camera(self, points_world: np.ndarray) -> np.ndarray:
+        return (np.atleast_2d(np.asarray(points_world, float)) - self.t) @ self.R
+
+    def matrix(self) -> np.ndarray:
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = self.R, self.t
+        return T
+
+
+def project(K: np.ndarray, pose: CameraPose, points_world: np.ndarray) -> np.ndarray:
+    """Pixel coordinates (N, 2) of world points; points behind the camera give NaN."""
+    pc = pose.to_camera(np.atleast_2d(points_world))
+    z = pc[:, 2:3]
+    uv = (pc[:, :2] / np.where(z > 1e-9, z, np.nan)) @ K[:2, :2].T + K[:2, 2]
+    return uv

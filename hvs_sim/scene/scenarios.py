@@ -1,0 +1,217 @@
+"""Scenario presets: what the camera, the target and the people in front of it do over time.
+
+Everything here is a pure function of time and of a seed, so that a run can be replayed exactly.
+Occluders are placed relative to the line from the camera (where it will be when they cross)
+to the target, so the occlusion profile holds whatever the start pose.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from hvs_sim.errors import ConfigError, choice_error
+from hvs_sim.scene.flag_art import FLAG_NAMES
+
+MOUNTS = ("handheld", "arm")
+OCCLUDER_KINDS = ("walk", "pause", "hover")
+
+
+@dataclass(frozen=True)
+class CameraConfig:
+    """Wrist / hand-held camera: image size in pixels and vertical field of view in degrees."""
+
+    width: int = 640
+    height: int = 480
+    fovy: float = 45.0
+
+    def __post_init__(self):
+        for name in ("width", "height"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 64 <= v <= 4096:
+                raise ConfigError(f"camera {name} must be an int in [64, 4096] pixels, got {v!r}")
+        if not isinstance(self.fovy, (int, float)) or not 10.0 <= float(self.fovy) <= 120.0:
+            raise ConfigError(f"camera fovy must be a number of degrees in [10, 120], got {self.fovy!r}")
+
+
+@dataclass(frozen=True)
+class OccluderPlan:
+    """How one person moves across the camera-target line.
+
+    kind: "walk" crosses at `speed`; "pause" walks in, stands on the line for `pause_s`, walks out;
+    "hover" stands beside the line with its edge covering between `cover[0]` and `cover[1]` of the
+    target width, swaying with period `period_s`. `depth` is where on the camera→target line the
+    person stands (0 = camera, 1 = target). `direction` is +1 or −1 (which side it comes from).
+    """
+
+    kind: str = "walk"
+    t_cross: float = 2.5
+    speed: float = 0.5
+    depth: float = 0.55
+    direction: int = 1
+    pause_s: float = 1.5
+    cover: tuple[float, float] = (0.3, 0.65)
+    period_s: float = 2.5
+
+    @property
+    def lock_time(self) -> float:
+        """When the path is fixed: about 0.8 m before the person reaches the camera-target line."""
+        if self.kind == "hover":
+            return 0.0
+        t_reach = self.t_cross - (self.pause_s / 2 if self.kind == "pause" else 0.0)
+        return max(0.0, t_reach - 0.8 / self.speed)
+
+    def __post_init__(self):
+        if self.kind not in OCCLUDER_KINDS:
+            raise choice_error("occluder kind", self.kind, OCCLUDER_KINDS)
+        if not 0.2 <= self.depth <= 0.9:
+            raise ConfigError(f"occluder depth must be in [0.2, 0.9] of the camera-target distance, got {self.depth}")
+        if self.direction not in (1, -1):
+            raise ConfigError(f"occluder direction must be +1 or -1, got {self.direction}")
+        if self.speed <= 0:
+            raise ConfigError(f"occluder speed must be > 0 m/s, got {self.speed}")
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A named, seeded scene set-up. Vary with `dataclasses.replace`."""
+
+    name: str
+    mount: str = "handheld"
+    target_flag: str = "star_field"
+    seed: int = 0
+    duration: float = 6.0
+    fps: float = 30.0
+    standoff: float = 0.8
+    camera: CameraConfig = field(default_factory=CameraConfig)
+    occluders: tuple[OccluderPlan, ...] = ()
+    start_offset: tuple[float, float, float, float] = (0.03, -0.02, 0.06, math.radians(6.0))
+    wall_motion: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    shake: float = 1.0
+    shadows: bool = False
+
+    def __post_init__(self):
+        if self.mount not in MOUNTS:
+            raise choice_error("mount", self.mount, MOUNTS)
+        if self.target_flag not in FLAG_NAMES:
+            raise choice_error("flag", self.target_flag, FLAG_NAMES)
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+            raise ConfigError(f"seed must be a non-negative int, got {self.seed!r} ({type(self.seed).__name__})")
+        if not 0.0 < self.duration <= 600.0:
+            raise ConfigError(f"duration must be in (0, 600] seconds, got {self.duration}")
+        if not 1.0 <= self.fps <= 240.0:
+            raise ConfigError(f"fps must be in [1, 240], got {self.fps}")
+        if not 0.4 <= self.standoff <= 1.5:
+            raise ConfigError(f"standoff must be in [0.4, 1.5] m, got {self.standoff}")
+        if len(self.start_offset) != 4 or not all(math.isfinite(v) for v in self.start_offset):
+            raise ConfigError("start_offset must be 4 finite numbers (dx, dy, dz in m, droll in rad)")
+        if np.linalg.norm(self.start_offset[:3]) > 0.15 or abs(self.start_offset[3]) > math.radians(30):
+            raise ConfigError("start_offset must stay within 0.15 m and 30 degrees of the reference pose")
+        if self.shake < 0:
+            raise ConfigError(f"shake must be >= 0, got {self.shake}")
+
+    @property
+    def n_frames(self) -> int:
+        return int(round(self.duration * self.fps))
+
+
+_PRESETS: dict[str, dict] = {
+    "clear": dict(occluders=()),
+    "walk_by": dict(occluders=(OccluderPlan("walk", t_cross=3.0, speed=0.45),)),
+    "pause": dict(occluders=(OccluderPlan("pause", t_cross=3.0, speed=0.45, pause_s=1.5),), duration=7.0),
+    "partial": dict(occluders=(OccluderPlan("hover", t_cross=1.0, cover=(0.32, 0.62), direction=-1),)),
+    "two_people": dict(
+        occluders=(
+            OccluderPlan("walk", t_cross=2.5, speed=0.5, depth=0.5, direction=1),
+            OccluderPlan("walk", t_cross=4.0, speed=0.4, depth=0.65, direction=-1),
+        ),
+        duration=6.5,
+    ),
+    "moving_target": dict(occluders=(OccluderPlan("walk", t_cross=4.0, speed=0.45),), wall_motion=(0.03, 0.015, 0.2)),
+}
+SCENARIO_NAMES: tuple[str, ...] = tuple(_PRESETS)
+
+
+def make_scenario(name: str, mount: str = "handheld", seed: int = 0, **overrides) -> Scenario:
+    """Named preset with the given mount and seed; keyword overrides replace any field."""
+    if name not in _PRESETS:
+        raise choice_error("scenario", name, SCENARIO_NAMES)
+    return Scenario(name=name, mount=mount, seed=seed, **{**_PRESETS[name], **overrides})
+
+
+def with_seed(scenario: Scenario, seed: int) -> Scenario:
+    return dataclasses.replace(scenario, seed=seed)
+
+
+# ---------------------------------------------------------------- occluder motion
+
+
+def smoothstep(x):
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3 - 2 * x)
+
+
+def occluder_lateral(plan: OccluderPlan, t: float, body_half: float, target_half: float) -> float:
+    """Signed offset (m) of a person's centre from the camera-target line, along its walking axis.
+
+    body_half: half the person's extent along that axis; target_half: half the target width
+    projected to the person's depth. Both come from the scene geometry.
+    """
+    d = plan.direction
+    if plan.kind == "walk":
+        return d * plan.speed * (t - plan.t_cross)
+    if plan.kind == "pause":
+        t_in = plan.t_cross - plan.pause_s / 2
+        if t < t_in:
+            return d * plan.speed * (t - t_in)
+        return d * plan.speed * max(0.0, t - t_in - plan.pause_s)
+    # hover: approach, then sway so that the leading edge covers cover[0]..cover[1] of the target
+    lo, hi = plan.cover
+    phase = 2 * math.pi * max(0.0, t - plan.t_cross) / plan.period_s
+    cover = 0.5 * (lo + hi) - 0.5 * (hi - lo) * math.cos(phase)
+    settle = -d * (body_half + target_half - 2 * target_half * cover)
+    if t < plan.t_cross:
+        return settle + d * plan.speed * (t - plan.t_cross)
+    return settle
+
+
+# ---------------------------------------------------------------- hand-held shake
+
+
+@dataclass(frozen=True)
+class ShakeModel:
+    """Hand-held camera motion: slow drift plus 1–10 Hz tremor, roll and distance changes.
+
+    Offsets are in the camera frame (x right, y down, z forward; metres) and roll/pitch/yaw (rad).
+    """
+
+    amp: np.ndarray  # (6, n) amplitudes per axis and component
+    freq: np.ndarray  # (n,) Hz
+    phase: np.ndarray  # (6, n)
+
+    @staticmethod
+    def sample(seed: int, scale: float = 1.0) -> "ShakeModel":
+        rng = np.random.default_rng([seed, 7])
+        drift_f = rng.uniform(0.08, 0.3, 3)
+        tremor_f = rng.uniform(1.0, 10.0, 5)
+        freq = np.concatenate([drift_f, tremor_f])
+        # drift: cm-level translation, 1–2 degrees; tremor falls off with frequency (sub-mm at 10 Hz)
+        drift_amp = np.array([0.012, 0.010, 0.03, 0.02, 0.008, 0.008])
+        tremor_amp = np.array([0.0012, 0.0012, 0.0015, 0.002, 0.0006, 0.0006])
+        amp = np.concatenate(
+            [
+                drift_amp[:, None] * rng.uniform(0.5, 1.0, (6, 3)) / 2,
+                tremor_amp[:, None] * rng.uniform(0.3, 1.0, (6, 5)) / tremor_f[None, :] * 2,
+            ],
+            axis=1,
+        ) * scale
+        phase = rng.uniform(0, 2 * np.pi, (6, freq.size))
+        return ShakeModel(amp=amp, freq=freq, phase=phase)
+
+    def offset(self, t: float) -> np.ndarray:
+        """(dx, dy, dz, droll, dpitch, dyaw) at time t; zero mean, starts near zero."""
+        w = 2 * np.pi * self.freq[None, :]
+        return (self.amp * (np.sin(w * t + self.phase) - np.sin(self.phase))).sum(axis=1)

@@ -1,0 +1,214 @@
+"""The simulated world of one scenario: builds the MJCF, owns the physics and moves things in time."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from dm_control import mjcf
+from dm_control.utils import inverse_kinematics
+
+from hvs_sim.errors import ConfigError
+from hvs_sim.geometry import mat_to_quat, offset_pose, opencv_to_mujoco
+from hvs_sim.scene.parts import ArmRig, FlagWall, HandheldRig, Person
+from hvs_sim.scene.scenarios import Scenario, ShakeModel, occluder_lateral
+
+# Reference camera: 1.3 m high, looking along world +X, upright. Its OpenCV rotation has
+# x_cam = −Y_world (right), y_cam = −Z_world (down), z_cam = +X_world (forward).
+REFERENCE_POSITION = np.array([0.40, 0.0, 1.30])
+REFERENCE_R_CV = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+PHYSICS_SUBSTEPS = 20  # physics steps per frame (timestep = 1 / (fps · substeps))
+
+
+class Scene:
+    """One scenario's world. `reset()` puts everything at t = 0; `advance(qdot)` moves one frame."""
+
+    def __init__(self, scenario: Scenario):
+        self.scenario = scenario
+        cam = scenario.camera
+        rng = np.random.default_rng([scenario.seed, 1])
+        root = mjcf.RootElement(model="hvs_scene")
+        root.option.timestep = 1.0 / (scenario.fps * PHYSICS_SUBSTEPS)
+        glob = getattr(root.visual, "global")
+        glob.offwidth, glob.offheight = cam.width, cam.height
+        # fixed extent so that clip planes do not depend on where things are: near 1.5 cm, far 30 m
+        root.statistic.extent = 3.0
+        root.visual.map.znear = 0.005
+        root.visual.map.zfar = 10.0
+        root.visual.quality.shadowsize = 2048 if scenario.shadows else 0
+        root.visual.headlight.ambient = [0.35, 0.35, 0.35]
+        root.visual.headlight.diffuse = [0.35, 0.35, 0.35]
+        root.visual.headlight.specular = [0.05, 0.05, 0.05]
+        root.worldbody.add("light", name="key", pos=[-0.5, 0.6, 2.6], dir=[0.6, -0.25, -0.6],
+                           diffuse=[0.55, 0.55, 0.52], castshadow=scenario.shadows)
+        floor_tex = root.asset.add("texture", name="floor", type="2d", builtin="checker", width=256, height=256,
+                                   rgb1=[0.35, 0.33, 0.3], rgb2=[0.42, 0.4, 0.37])
+        floor_mat = root.asset.add("material", name="floor", texture=floor_tex, texrepeat=[8, 8])
+        root.worldbody.add("geom", name="floor", type="plane", size=[6, 6, 0.1], material=floor_mat)
+        root.asset.add("texture", type="skybox", builtin="gradient", rgb1=[0.75, 0.78, 0.8], rgb2=[0.45, 0.47, 0.5],
+                       width=64, height=64)
+        room_tex = root.asset.add("texture", name="room", type="2d", builtin="flat", width=128, height=128,
+                                  rgb1=[0.72, 0.74, 0.76], mark="random", random=0.01, rgb2=[0.68, 0.7, 0.72])
+        room_mat = root.asset.add("material", name="room", texture=room_tex, texrepeat=[6, 3])
+        # the room's back wall, a little behind the flag board
+        root.worldbody.add("geom", name="room_wall", type="box", size=[0.02, 3.0, 1.5],
+                           pos=[REFERENCE_POSITION[0] + scenario.standoff + 0.25, 0, 1.5], material=room_mat,
+                           contype=0, conaffinity=0)
+
+        self.wall = FlagWall(root, scenario.target_flag)
+        self.people = [Person(root, i, rng) for i in range(len(scenario.occluders))]
+        if scenario.mount == "arm":
+            self.rig = ArmRig(root, cam.fovy)
+        else:
+            self.rig = HandheldRig(root, cam.fovy)
+        self.camera = self.rig.camera
+        self.mjcf_root = root
+        self.physics = mjcf.Physics.from_mjcf_model(root)
+        self.shake = ShakeModel.sample(scenario.seed, scenario.shake)
+        self.target_centre0 = REFERENCE_POSITION + np.array([scenario.standoff, 0.0, 0.0])
+        self.reset()
+
+    # ------------------------------------------------------------------ time and kinematics
+
+    @property
+    def time(self) -> float:
+        return self.frame_index / self.scenario.fps
+
+    @property
+    def is_arm(self) -> bool:
+        return isinstance(self.rig, ArmRig)
+
+    def wall_position(self, t: float) -> np.ndarray:
+        ay, az, f = self.scenario.wall_motion
+        w = 2 * math.pi * f * t
+        return self.target_centre0 + np.array([0.0, ay * math.sin(w), az * (1 - math.cos(w))])
+
+    def reference_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """Camera pose (position, OpenCV rotation) that sees the target centred at the standoff."""
+        return REFERENCE_POSITION.copy(), REFERENCE_R_CV.copy()
+
+    def start_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """Reference pose displaced by the scenario's start offset (dx, dy, dz, roll)."""
+        return offset_pose(*self.reference_pose(), self.scenario.start_offset)
+
+    def handheld_pose(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        pos, R = self.start_pose()
+        return offset_pose(pos, R, self.shake.offset(t))
+
+    def camera_position(self) -> np.ndarray:
+        return self.physics.bind(self.camera).xpos.copy()
+
+    def _occluder_line(self, k: int, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """Camera and target positions that person k walks across.
+
+        The line follows the camera until the person is about to enter the view (`lock_time`),
+        then stays fixed, so the planned occlusion profile holds from any start pose and a
+        servoing arm is not chased by the person afterwards.
+        """
+        plan = self.scenario.occluders[k]
+        if k in self._locked_lines:
+            return self._locked_lines[k]
+        line = (self.camera_position(), self.wall_position(plan.t_cross))
+        if t >= plan.lock_time:
+            self._locked_lines[k] = line
+        return line
+
+    def _place_people(self, t: float) -> None:
+        for k, (person, plan) in enumerate(zip(self.people, self.scenario.occluders)):
+            c, g = self._occluder_line(k, t)
+            line = g - c
+            foot = c + plan.depth * line
+            horiz = np.array([line[0], line[1], 0.0])
+            horiz /= np.linalg.norm(horiz)
+            lateral_axis = np.array([-horiz[1], horiz[0], 0.0])
+            target_half = FlagWall.FLAG_W / 2 * plan.depth
+            # walkers pass in profile; a hovering person has stopped and turned to face the camera
+            facing = plan.kind == "hover" and t >= plan.t_cross
+            lat = occluder_lateral(plan, t, Person.HALF_WIDTH if plan.kind == "hover" else Person.HALF_DEPTH, target_half)
+            bob = 0.0 if facing else 0.01 * abs(math.sin(2 * math.pi * t))
+            pos = np.array([foot[0], foot[1], 0.0]) + lateral_axis * lat + np.array([0, 0, bob])
+            fwd = -horiz if facing else plan.direction * lateral_axis
+            R = np.column_stack([fwd, np.cross([0, 0, 1.0], fwd), [0, 0, 1.0]])
+            b = self.physics.bind(person.body)
+            b.mocap_pos = pos
+            b.mocap_quat = mat_to_quat(R)
+
+    def _apply_time(self) -> None:
+        t = self.time
+        self.physics.data.time = t
+        self.physics.bind(self.wall.body).mocap_pos = self.wall_position(t)
+        if not self.is_arm:
+            pos, R_cv = self.handheld_pose(t)
+            b = self.physics.bind(self.rig.body)
+            b.mocap_pos = pos
+            b.mocap_quat = mat_to_quat(opencv_to_mujoco(R_cv))
+        self.physics.forward()  # camera pose first: the people are placed relative to it
+        if self.people:
+            self._place_people(t)
+            self.physics.forward()
+
+    # ------------------------------------------------------------------ arm
+
+    def solve_ik(self, position: np.ndarray, R_cv: np.ndarray, q0: np.ndarray | None = None) -> np.ndarray:
+        """Joint angles that put the wrist camera at (position, R_cv); raises ConfigError if unreachable."""
+        if not self.is_arm:
+            raise ConfigError("inverse kinematics needs mount='arm'")
+        return _solve_ik(self.mjcf_root, self.physics, self.rig, position, R_cv, q0)
+
+    @property
+    def joint_positions(self) -> np.ndarray:
+        if not self.is_arm:
+            return np.zeros(0)
+        return self.physics.bind(self.rig.joints).qpos.copy()
+
+    @property
+    def joint_velocities(self) -> np.ndarray:
+        if not self.is_arm:
+            return np.zeros(0)
+        return self.physics.bind(self.rig.joints).qvel.copy()
+
+    def reset(self) -> None:
+        self.frame_index = 0
+        self._locked_lines: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        if self.is_arm:
+            q_home = _home_configuration(self)
+            q_start = self.solve_ik(*self.start_pose(), q0=q_home)
+            self.physics.reset()
+            self.physics.bind(self.rig.joints).qpos = q_start
+            self.physics.bind(self.rig.actuators).ctrl = 0.0
+        self._apply_time()
+
+    def advance(self, joint_velocity: np.ndarray | None = None) -> None:
+        """Move one frame (1/fps s): joint velocity commands for the arm, kinematics for the rest."""
+        if self.is_arm:
+            cmd = np.zeros(len(self.rig.actuators)) if joint_velocity is None else np.asarray(joint_velocity, float)
+            self.physics.bind(self.rig.actuators).ctrl = cmd
+            for _ in range(PHYSICS_SUBSTEPS):
+                self.physics.step()
+        self.frame_index += 1
+        self._apply_time()
+
+
+def _solve_ik(root, physics, rig: ArmRig, position, R_cv, q0) -> np.ndarray:
+    scratch = physics.copy(share_model=True)
+    joints = scratch.bind(rig.joints)
+    if q0 is not None:
+        joints.qpos = q0
+    names = [j.full_identifier for j in rig.joints]
+    quat = mat_to_quat(opencv_to_mujoco(R_cv))
+    res = inverse_kinematics.qpos_from_site_pose(
+        scratch, rig.camera_site.full_identifier, target_pos=position, target_quat=quat,
+        joint_names=names, tol=1e-10, max_steps=400, inplace=True)
+    if not res.success and res.err_norm > 1e-6:
+        raise ConfigError(f"camera pose {np.round(position, 3).tolist()} is out of the arm's reach (IK error {res.err_norm:.2g})")
+    return scratch.bind(rig.joints).qpos.copy()
+
+
+_HOME: list[np.ndarray] = []  # the reference pose is fixed, so its IK solution is solved once
+
+
+def _home_configuration(scene: Scene) -> np.ndarray:
+    if not _HOME:
+        _HOME.append(scene.solve_ik(*scene.reference_pose(), q0=np.zeros(len(scene.rig.joints))))
+    return _HOME[0].copy()
