@@ -1,0 +1,31 @@
+"""Trackers behind one contract: `make_tracker(name)`, `init(frame, roi)`, `update(frame) -> Track`.
+
+Imports nothing from scene/render: outside tools call this on their own image sequences.
+"""
+
+from __future__ import annotations
+
+from hvs_sim.errors import choice_error
+from hvs_sim.tracking.base import MODES, Track, Tracker
+
+TRACKER_NAMES = ("sift", "ecc", "deep_lk")
+
+
+def make_tracker(name: str, **config) -> Tracker:
+    """A fresh tracker by name; keyword arguments go to the method's config dataclass."""
+    if name == "deep_lk":
+        from hvs_sim.tracking.deep_lk import DeepLKConfig, DeepLKTracker
+
+        return DeepLKTracker(DeepLKConfig(**config))
+    if name == "sift":
+        from hvs_sim.tracking.baselines import SiftTracker
+
+        return SiftTracker(**config)
+    if name == "ecc":
+        from hvs_sim.tracking.baselines import EccTracker
+
+        return EccTracker(**config)
+    raise choice_error("tracker", name, TRACKER_NAMES)
+
+
+__all__ = ["make_tracker", "Track", "Tracker", "MODES", "TRACKER_NAMES"]

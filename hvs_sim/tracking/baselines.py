@@ -1,0 +1,89 @@
+"""The paper's classical baselines behind the tracker contract: SIFT + RANSAC and OpenCV ECC."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from hvs_sim.errors import ConfigError
+from hvs_sim.tracking.base import Estimate, Tracker
+from hvs_sim.tracking.frames import to_grey
+from hvs_sim.tracking.occlusion import TAU_PIX, aligned_patch, occlusion_fraction
+from hvs_sim.tracking.warp import project_similarity
+
+
+class _GreyTemplate(Tracker):
+    """Shared part: the grey template at full resolution and OP_t against it."""
+
+    def _init(self, frame, roi) -> None:
+        x, y, w, h = roi
+        self.template = to_grey(frame)[y:y + h, x:x + w].copy()
+        self.origin = np.array([x, y], float)
+
+    def occlusion(self, grey: np.ndarray, A: np.ndarray) -> float:
+        patch, inside = aligned_patch(grey, A, self.origin, self.template.shape)
+        return occlusion_fraction(patch, self.template, inside, TAU_PIX)
+
+
+class SiftTracker(_GreyTemplate):
+    """SIFT keypoints of the template matched in every frame (ratio test), RANSAC similarity."""
+
+    name = "sift"
+
+    def __init__(self, ratio: float = 0.75, min_inliers: int = 6, ransac_px: float = 3.0):
+        super().__init__()
+        if not 0 < ratio < 1:
+            raise ConfigError(f"ratio must be in (0, 1), got {ratio}")
+        self.ratio, self.min_inliers, self.ransac_px = ratio, min_inliers, ransac_px
+        self.sift = cv2.SIFT_create()
+        self.matcher = cv2.BFMatcher(cv2.NORM_L2)
+
+    def _init(self, frame, roi) -> None:
+        super()._init(frame, roi)
+        kps, self.desc = self.sift.detectAndCompute(self.template, None)
+        self.pts = np.array([k.pt for k in kps], np.float32).reshape(-1, 2) + self.origin.astype(np.float32)
+
+    def _update(self, frame) -> Estimate:
+        grey = to_grey(frame)
+        if self.desc is None or len(self.pts) < self.min_inliers:
+            return Estimate(self.A, "lost", 1.0, 0.0)
+        kps, desc = self.sift.detectAndCompute(grey, None)
+        if desc is None or len(kps) < 2:
+            return Estimate(self.A, "lost", 1.0, 0.0)
+        good = [m for m, n in (p for p in self.matcher.knnMatch(self.desc, desc, k=2) if len(p) == 2)
+                if m.distance < self.ratio * n.distance]
+        if len(good) < self.min_inliers:
+            return Estimate(self.A, "lost", self.occlusion(grey, self.A), len(good) / max(len(self.pts), 1))
+        src = self.pts[[m.queryIdx for m in good]]
+        dst = np.array([kps[m.trainIdx].pt for m in good], np.float32)
+        M, inliers = cv2.estimateAffinePartial2D(src, dst, method=cv2.RANSAC, ransacReprojThreshold=self.ransac_px)
+        n_in = int(inliers.sum()) if inliers is not None else 0
+        score = n_in / max(len(self.pts), 1)
+        if M is None or n_in < self.min_inliers:
+            return Estimate(self.A, "lost", self.occlusion(grey, self.A), score)
+        A = np.vstack([M, [0, 0, 1.0]])
+        return Estimate(A, "align", self.occlusion(grey, A), score)
+
+
+class EccTracker(_GreyTemplate):
+    """OpenCV ECC (the paper's "LK-only") from the previous estimate: affine, projected to a similarity."""
+
+    name = "ecc"
+
+    def __init__(self, iterations: int = 50, eps: float = 1e-4, gauss: int = 5):
+        super().__init__()
+        if iterations < 1:
+            raise ConfigError(f"iterations must be >= 1, got {iterations}")
+        self.criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, iterations, eps)
+        self.gauss = gauss
+
+    def _update(self, frame) -> Estimate:
+        grey = to_grey(frame)
+        T = np.array([[1, 0, self.origin[0]], [0, 1, self.origin[1]], [0, 0, 1.0]])
+        W = (self.A @ T)[:2].astype(np.float32)  # template pixel → frame pixel
+        try:
+            score, W = cv2.findTransformECC(self.template, grey, W, cv2.MOTION_AFFINE, self.criteria, None, self.gauss)
+        except cv2.error:  # raised when ECC does not converge or the frame is degenerate
+            return Estimate(self.A, "lost", self.occlusion(grey, self.A), 0.0)
+        A = project_similarity(np.vstack([W, [0, 0, 1.0]]) @ np.linalg.inv(T))
+        return Estimate(A, "align", self.occlusion(grey, A), float(score))

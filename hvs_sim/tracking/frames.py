@@ -1,0 +1,67 @@
+"""Validation of frames and ROIs handed to a tracker, and the grey working image."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from hvs_sim.errors import InputError
+
+MIN_ROI = 24  # pixels: pool2 has stride 4 and the LK needs a few feature cells plus a border
+
+
+def check_frame(frame, expected_shape: tuple[int, int] | None = None) -> np.ndarray:
+    """Return the frame as H×W×3 uint8 RGB, or raise InputError saying what is accepted."""
+    if not isinstance(frame, np.ndarray):
+        raise InputError(f"frame must be a numpy array (H×W×3 uint8 RGB), got {type(frame).__name__}")
+    if frame.ndim != 3 or frame.shape[2] != 3:
+        raise InputError(f"frame must have shape H×W×3 (RGB), got shape {frame.shape}")
+    if frame.shape[0] < MIN_ROI or frame.shape[1] < MIN_ROI:
+        raise InputError(f"frame must be at least {MIN_ROI}×{MIN_ROI} pixels, got {frame.shape[1]}×{frame.shape[0]}")
+    if frame.dtype == np.uint8:
+        out = frame
+    elif frame.dtype in (np.float32, np.float64):
+        if not np.isfinite(frame).all():
+            raise InputError("frame contains NaN or inf; accepted: uint8 RGB, or float RGB with finite values in [0, 255]")
+        if frame.min() < 0 or frame.max() > 255:
+            raise InputError(f"float frame values must lie in [0, 255], got [{frame.min():.3g}, {frame.max():.3g}]")
+        out = np.round(frame).astype(np.uint8)
+    else:
+        raise InputError(f"frame dtype must be uint8 (or float32/float64 in [0, 255]), got {frame.dtype}")
+    if expected_shape is not None and out.shape[:2] != tuple(expected_shape):
+        raise InputError(f"frame size {out.shape[1]}×{out.shape[0]} differs from the size at init "
+                         f"{expected_shape[1]}×{expected_shape[0]}; re-init the tracker for a new size")
+    return out
+
+
+def check_roi(roi, frame_shape: tuple[int, int]) -> tuple[int, int, int, int]:
+    """Validate (x, y, w, h) ints inside the frame and at least MIN_ROI on each side."""
+    try:
+        vals = [v for v in roi]
+    except TypeError:
+        raise InputError(f"roi must be (x, y, w, h) integers, got {roi!r}") from None
+    if len(vals) != 4 or not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in vals):
+        raise InputError(f"roi must be 4 integers (x, y, w, h), got {roi!r}")
+    x, y, w, h = (int(v) for v in vals)
+    H, W = frame_shape
+    if w < MIN_ROI or h < MIN_ROI:
+        raise InputError(f"roi must be at least {MIN_ROI}×{MIN_ROI} pixels (feature stride 4 plus border), got {w}×{h}")
+    if x < 0 or y < 0 or x + w > W or y + h > H:
+        raise InputError(f"roi {(x, y, w, h)} lies outside the {W}×{H} frame; it must satisfy 0 <= x, x + w <= {W}, "
+                         f"0 <= y, y + h <= {H}")
+    return x, y, w, h
+
+
+def to_grey(frame: np.ndarray) -> np.ndarray:
+    return cv2.cvtColor(frame, cv2.COLOR_RGB2GRAY)
+
+
+def roi_center(roi) -> np.ndarray:
+    x, y, w, h = roi
+    return np.array([x + (w - 1) / 2.0, y + (h - 1) / 2.0])
+
+
+def roi_corners(roi) -> np.ndarray:
+    """Outer pixel edges of the ROI (TL, TR, BR, BL) in the pixel-centre convention."""
+    x, y, w, h = roi
+    return np.array([[x - 0.5, y - 0.5], [x + w - 0.5, y - 0.5], [x + w - 0.5, y + h - 0.5], [x - 0.5, y + h - 0.5]])

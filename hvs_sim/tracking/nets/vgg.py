@@ -1,0 +1,117 @@
+"""Frozen VGG-16 up to pool2 (conv1_1 … pool2): the feature extractor of the paper's deep LK.
+
+Weights: the ImageNet VGG-16 of Simonyan & Zisserman (CC BY 4.0), as released with Keras, stored
+in assets/weights/vgg16_pool2.npz by experiments/extract_vgg16_weights.py (provenance and checksum
+in vgg16_pool2.json). Keras VGG expects BGR in 0–255 minus per-channel means. torchvision's
+`vgg16-397923af.pth` (RGB, ImageNet mean/std, a different training) is accepted too.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch import nn
+
+from hvs_sim.errors import WeightsError
+from hvs_sim.paths import WEIGHTS_DIR
+
+VGG_NPZ = WEIGHTS_DIR / "vgg16_pool2.npz"
+LAYERS = ("conv1_1", "conv1_2", "conv2_1", "conv2_2")
+SHAPES = {"conv1_1": (64, 3, 3, 3), "conv1_2": (64, 64, 3, 3), "conv2_1": (128, 64, 3, 3), "conv2_2": (128, 128, 3, 3)}
+KERAS_BGR_MEAN = (103.939, 116.779, 123.68)
+TORCHVISION_MEAN, TORCHVISION_STD = (0.485, 0.456, 0.406), (0.229, 0.224, 0.225)
+STRIDES = {"conv1_2": 1, "pool1": 2, "pool2": 4}  # level name → stride in input pixels
+
+
+def sha256(path: Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+class VGG16Pool2(nn.Module):
+    """conv1_1 → conv1_2 → pool1 → conv2_1 → conv2_2 → pool2, returning the requested levels.
+
+    Input: a grey image batch (N, 1, H, W) with values 0–255; it is replicated to three channels
+    and normalised the way the loaded weights expect.
+    """
+
+    def __init__(self, weights: dict[str, tuple[np.ndarray, np.ndarray]], flavour: str = "keras"):
+        super().__init__()
+        self.convs = nn.ModuleDict()
+        for name in LAYERS:
+            w, b = weights[name]
+            conv = nn.Conv2d(w.shape[1], w.shape[0], 3, padding=1)
+            conv.weight.data = torch.from_numpy(np.ascontiguousarray(w, np.float32))
+            conv.bias.data = torch.from_numpy(np.ascontiguousarray(b, np.float32))
+            self.convs[name] = conv
+        if flavour == "keras":  # BGR order, matching the kernel's input channels; 0–255 minus means
+            mean, scale = torch.tensor(KERAS_BGR_MEAN), torch.ones(3)
+        elif flavour == "torchvision":  # RGB in 0–1, ImageNet mean/std
+            mean = torch.tensor(TORCHVISION_MEAN) * 255.0
+            scale = 1.0 / (torch.tensor(TORCHVISION_STD) * 255.0)
+        else:
+            raise WeightsError(f"unknown VGG weight flavour {flavour!r}; accepted: keras, torchvision")
+        self.register_buffer("mean", mean.reshape(1, 3, 1, 1))
+        self.register_buffer("scale", scale.reshape(1, 3, 1, 1))
+        self.flavour = flavour
+        self.requires_grad_(False)
+        self.eval()
+
+    def forward(self, grey: torch.Tensor, levels=("pool2",)) -> dict[str, torch.Tensor]:
+        out = {}
+        rgb = (grey.expand(-1, 3, -1, -1) - self.mean) * self.scale  # grey replicated to 3 channels
+        x = torch.relu(self.convs["conv1_1"](rgb))
+        x = torch.relu(self.convs["conv1_2"](x))
+        out["conv1_2"] = x
+        x = nn.functional.max_pool2d(x, 2)
+        out["pool1"] = x
+        if "pool2" in levels:
+            x = torch.relu(self.convs["conv2_1"](x))
+            x = torch.relu(self.convs["conv2_2"](x))
+            out["pool2"] = nn.functional.max_pool2d(x, 2)
+        return {k: out[k] for k in levels}
+
+
+def load_weights(path: Path | str | None = None) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]], str]:
+    """Read conv1_1…conv2_2 from our .npz (Keras flavour) or torchvision's vgg16-397923af.pth."""
+    path = Path(path) if path is not None else VGG_NPZ
+    if not path.exists():
+        raise WeightsError(f"VGG-16 weights not found at {path}; run `python experiments/extract_vgg16_weights.py` "
+                           "or pass the path of torchvision's vgg16-397923af.pth")
+    weights: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    if path.suffix == ".npz":
+        data = np.load(path)
+        flavour = "keras"
+        for name in LAYERS:
+            if f"{name}_w" not in data or f"{name}_b" not in data:
+                raise WeightsError(f"{path} lacks {name}_w/{name}_b; it is not an hvs_sim VGG-16 weights file")
+            weights[name] = (data[f"{name}_w"], data[f"{name}_b"])
+    elif path.suffix in (".pth", ".pt"):
+        state = torch.load(path, map_location="cpu", weights_only=True)
+        flavour = "torchvision"
+        for name, idx in zip(LAYERS, (0, 2, 5, 7)):
+            try:
+                weights[name] = (state[f"features.{idx}.weight"].numpy(), state[f"features.{idx}.bias"].numpy())
+            except KeyError as exc:
+                raise WeightsError(f"{path} has no key {exc}; expected torchvision VGG-16 keys features.0 … features.7") from None
+    else:
+        raise WeightsError(f"unsupported weights file {path.name}; accepted: .npz (hvs_sim) or .pth (torchvision)")
+    for name in LAYERS:
+        w, b = weights[name]
+        if tuple(w.shape) != SHAPES[name] or tuple(b.shape) != (SHAPES[name][0],):
+            raise WeightsError(f"{path}: {name} has shape {tuple(w.shape)}/{tuple(b.shape)}, expected {SHAPES[name]}")
+    return weights, flavour
+
+
+_CACHE: dict[str, VGG16Pool2] = {}
+
+
+def vgg16_pool2(path: Path | str | None = None) -> VGG16Pool2:
+    """The frozen extractor (cached per weights file)."""
+    key = str(Path(path).resolve()) if path is not None else str(VGG_NPZ)
+    if key not in _CACHE:
+        weights, flavour = load_weights(path)
+        _CACHE[key] = VGG16Pool2(weights, flavour)
+    return _CACHE[key]

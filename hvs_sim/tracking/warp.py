@@ -1,0 +1,52 @@
+"""2-D similarity warps as 3×3 matrices, and the tracker pose (tx, ty, θ, s) they stand for.
+
+A pose is relative to the template at init: a template point x maps to c + t + s·R(θ)(x − c),
+c being the template centre in the frame.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def similarity(tx: float, ty: float, theta: float, scale: float) -> np.ndarray:
+    c, s = scale * math.cos(theta), scale * math.sin(theta)
+    return np.array([[c, -s, tx], [s, c, ty], [0.0, 0.0, 1.0]])
+
+
+def params_to_matrix(p: np.ndarray) -> np.ndarray:
+    """LK parameterisation p = (a, b, tx, ty): [[1 + a, −b, tx], [b, 1 + a, ty]] (zero = identity)."""
+    a, b, tx, ty = p
+    return np.array([[1.0 + a, -b, tx], [b, 1.0 + a, ty], [0.0, 0.0, 1.0]])
+
+
+def pose_to_matrix(pose, center) -> np.ndarray:
+    """Frame-from-template matrix of a pose about the template centre `center`."""
+    tx, ty, theta, scale = pose
+    cx, cy = center
+    return np.array([[1, 0, cx + tx], [0, 1, cy + ty], [0, 0, 1.0]]) @ similarity(0, 0, theta, scale) @ \
+        np.array([[1, 0, -cx], [0, 1, -cy], [0, 0, 1.0]])
+
+
+def matrix_to_pose(A: np.ndarray, center) -> np.ndarray:
+    """Inverse of `pose_to_matrix` (projects any 2×3 affine part onto the nearest similarity)."""
+    a = 0.5 * (A[0, 0] + A[1, 1])
+    b = 0.5 * (A[1, 0] - A[0, 1])
+    c = np.asarray(center, float)
+    moved = A[:2, :2] @ c + A[:2, 2]
+    t = moved - c
+    return np.array([t[0], t[1], math.atan2(b, a), math.hypot(a, b)])
+
+
+def project_similarity(A: np.ndarray) -> np.ndarray:
+    """Nearest similarity to an affine 3×3 (keeps the translation)."""
+    a = 0.5 * (A[0, 0] + A[1, 1])
+    b = 0.5 * (A[1, 0] - A[0, 1])
+    return np.array([[a, -b, A[0, 2]], [b, a, A[1, 2]], [0.0, 0.0, 1.0]])
+
+
+def apply(A: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    pts = np.asarray(pts, float)
+    return pts @ A[:2, :2].T + A[:2, 2]
