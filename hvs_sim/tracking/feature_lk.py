@@ -81,6 +81,7 @@ class FeatureICLK:
         """Feature maps of a crop whose top-left pixel is at work coords `origin`; template = `rect` (lo, hi)."""
         self.center, self.rho = np.asarray(center, float), float(rho)
         lo, hi = rect
+        self.template_maps, self.template_origin = feats, np.asarray(origin, float)  # kept for diagnostics
         self.levels = []
         for name in self.config.levels:
             fmap = feats[name][0] if feats[name].dim() == 4 else feats[name]

@@ -1,0 +1,1 @@
+"""Benchmarks: tracking accuracy/speed on rendered sequences, and servo convergence."""
