@@ -7,3 +7,14 @@ from hvs_sim.errors import ConfigError, HvsError, InputError, RenderError, State
 
 __version__ = "0.1.0"
 __all__ = ["HvsError", "ConfigError", "InputError", "StateError", "RenderError", "WeightsError", "__version__"]
+
+
+def _register_envs() -> None:
+    from gymnasium.envs.registration import register, registry
+
+    if "hvs_sim/VisualServo-v0" not in registry:
+        register(id="hvs_sim/VisualServo-v0", entry_point="hvs_sim.envs.visual_servo:VisualServoEnv",
+                 max_episode_steps=300)
+
+
+_register_envs()

@@ -9,6 +9,8 @@ from pathlib import Path
 
 from hvs_sim.errors import HvsError
 
+DEFAULT_TRACKER = "deep_lk"
+
 
 def _scenario_from_args(args):
     from hvs_sim.scene.scenarios import CameraConfig, make_scenario
@@ -50,9 +52,30 @@ def cmd_scene(args) -> int:
     return 0
 
 
+def cmd_run(args) -> int:
+    from hvs_sim.loop import LoopConfig
+    from hvs_sim.runner import run_episode
+
+    args.mount = "arm"
+    scenario = _scenario_from_args(args)
+    config = LoopConfig(steps=args.steps)
+    summary, _ = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,
+                             keep_records=bool(args.rrd or args.spawn))
+    brief = {k: summary[k] for k in ("converged", "steps_to_converge", "final_error_px", "max_error_px_during_occlusion",
+                                     "lost_steps", "predict_steps", "fault_steps", "steps_per_second")}
+    print(json.dumps(brief, indent=2))
+    if args.json:
+        print(f"summary: {args.json}")
+    if args.rrd:
+        print(f"recording: {args.rrd}  (open it with: rerun {args.rrd})")
+    return 0
+
+
 def cmd_demo(args) -> int:
     parser = build_parser()
-    return cmd_scene(parser.parse_args(["scene", "--scenario", "walk_by", "--out", args.out]))
+    out = Path(args.out)
+    return cmd_run(parser.parse_args(["run", "--scenario", "walk_by", "--tracker", DEFAULT_TRACKER, "--seed", "0",
+                                      "--steps", "240", "--json", str(out / "run.json"), "--rrd", str(out / "run.rrd")]))
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -65,6 +88,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--frames", type=int, default=None, help="number of frames (default: the scenario's duration)")
     p.add_argument("--shadows", action="store_true", help="cast shadows (about 5x slower on a CPU)")
     p.set_defaults(func=cmd_scene)
+
+    p = sub.add_parser("run", help="closed-loop servo run: render -> track -> IBVS -> arm")
+    _add_scene_args(p, default_mount="arm")
+    p.add_argument("--tracker", default=DEFAULT_TRACKER, help="ground_truth, hybrid, deep_lk_residual, deep_lk, ecc, sift")
+    p.add_argument("--steps", type=int, default=240)
+    p.add_argument("--json", default=None, help="write the run summary here")
+    p.add_argument("--rrd", default=None, help="save a rerun recording here")
+    p.add_argument("--spawn", action="store_true", help="open the rerun viewer")
+    p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("demo", help="the README's demo on built-in defaults (headless, offline)")
     p.add_argument("--out", default="out/demo")

@@ -156,6 +156,28 @@ class Scene:
             raise ConfigError("inverse kinematics needs mount='arm'")
         return _solve_ik(self.mjcf_root, self.physics, self.rig, position, R_cv, q0)
 
+    def camera_jacobian(self) -> np.ndarray:
+        """(6, n) world-frame Jacobian [linear; angular] of the camera frame w.r.t. the arm joints."""
+        import mujoco
+
+        if not self.is_arm:
+            raise ConfigError("the camera Jacobian needs mount='arm'")
+        m, d = self.physics.model.ptr, self.physics.data.ptr
+        jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+        mujoco.mj_jacSite(m, d, jacp, jacr, self.physics.bind(self.rig.camera_site).element_id)
+        dofs = self.physics.bind(self.rig.joints).dofadr
+        return np.vstack([jacp[:, dofs], jacr[:, dofs]])
+
+    def joint_limits(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(lower, upper, max velocity) per arm joint; unlimited joints get ±inf."""
+        j = self.physics.bind(self.rig.joints)
+        limited = j.limited.astype(bool) if hasattr(j, "limited") else self.physics.model.jnt_limited[j.element_id].astype(bool)
+        rng = np.asarray(j.range, float)
+        lower = np.where(limited, rng[:, 0], -np.inf)
+        upper = np.where(limited, rng[:, 1], np.inf)
+        qdot_max = np.asarray(self.physics.bind(self.rig.actuators).ctrlrange, float)[:, 1]
+        return lower, upper, qdot_max
+
     @property
     def joint_positions(self) -> np.ndarray:
         if not self.is_arm:
@@ -167,6 +189,17 @@ class Scene:
         if not self.is_arm:
             return np.zeros(0)
         return self.physics.bind(self.rig.joints).qvel.copy()
+
+    def _friction_feedforward(self, cmd: np.ndarray) -> np.ndarray:
+        """Velocity offset that cancels joint dry friction, as the Jaco's firmware velocity loop does.
+
+        A velocity actuator makes torque kv·(ctrl − q̇); without this, commands below
+        frictionloss / kv (≈ 0.004 rad/s) would not move the joint and servoing would stall.
+        """
+        m = self.physics.model
+        dofs = self.physics.bind(self.rig.joints).dofadr
+        kv = self.physics.bind(self.rig.actuators).gainprm[:, 0]
+        return m.dof_frictionloss[dofs] / kv * np.tanh(cmd / 1e-3)
 
     def reset(self) -> None:
         self.frame_index = 0
@@ -183,7 +216,7 @@ class Scene:
         """Move one frame (1/fps s): joint velocity commands for the arm, kinematics for the rest."""
         if self.is_arm:
             cmd = np.zeros(len(self.rig.actuators)) if joint_velocity is None else np.asarray(joint_velocity, float)
-            self.physics.bind(self.rig.actuators).ctrl = cmd
+            self.physics.bind(self.rig.actuators).ctrl = cmd + self._friction_feedforward(cmd)
             for _ in range(PHYSICS_SUBSTEPS):
                 self.physics.step()
         self.frame_index += 1

@@ -1,0 +1,48 @@
+"""Camera twist → joint velocities: damped least squares on the camera Jacobian, with limits."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ArmLimits:
+    qdot_max: np.ndarray  # (n,) rad/s
+    q_lower: np.ndarray  # (n,) rad; −inf for unlimited joints
+    q_upper: np.ndarray  # (n,)
+    margin: float = 0.1  # rad: inside this distance to a limit, motion toward it is stopped
+    damping: float = 0.02  # DLS damping μ
+
+
+@dataclass
+class JointCommand:
+    qdot: np.ndarray
+    velocity_saturated: bool  # the joint velocity limits scaled the command down
+    limit_blocked: tuple[int, ...]  # joints stopped near a position limit
+
+
+def twist_to_joint_velocities(J: np.ndarray, twist_world: np.ndarray, q: np.ndarray, limits: ArmLimits) -> JointCommand:
+    """q̇ = Jᵀ (J Jᵀ + μ² I)⁻¹ ξ, then position-limit blocking and uniform velocity scaling.
+
+    J: (6, n) world-frame Jacobian [linear; angular] of the camera frame; twist_world: (6,).
+    """
+    J = np.asarray(J, float)
+    mu2 = limits.damping ** 2
+    qdot = J.T @ np.linalg.solve(J @ J.T + mu2 * np.eye(6), np.asarray(twist_world, float))
+    blocked = []
+    for i in range(len(q)):
+        if (q[i] < limits.q_lower[i] + limits.margin and qdot[i] < 0) or (q[i] > limits.q_upper[i] - limits.margin and qdot[i] > 0):
+            qdot[i] = 0.0
+            blocked.append(i)
+    ratio = float(np.max(np.abs(qdot) / limits.qdot_max))
+    saturated = ratio > 1.0
+    if saturated:
+        qdot = qdot / ratio
+    return JointCommand(qdot, saturated, tuple(blocked))
+
+
+def camera_twist_to_world(R_cv: np.ndarray, twist_cam: np.ndarray) -> np.ndarray:
+    """Express a camera-frame twist (v, ω) in world axes (same reference point: the camera centre)."""
+    return np.concatenate([R_cv @ twist_cam[:3], R_cv @ twist_cam[3:]])

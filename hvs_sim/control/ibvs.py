@@ -1,0 +1,137 @@
+"""Image-based visual servoing with point features: v = −λ L⁺ e.
+
+Features are the four tracked target corners in normalised image coordinates (x = (u − cx)/f).
+A similarity tracker observes translation, depth and roll of the target but not its pitch and yaw,
+so by default only (vx, vy, vz, ωz) are controlled; ωx and ωy are commanded zero.
+Twists are in the camera frame, OpenCV convention (x right, y down, z forward).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from hvs_sim.errors import ConfigError, InputError, choice_error
+
+DOF_NAMES = ("vx", "vy", "vz", "wx", "wy", "wz")
+INTERACTION_AT = ("current", "desired", "mean")
+DEPTH_SOURCES = ("scale", "true")
+
+
+def interaction_matrix(xy: np.ndarray, Z: np.ndarray) -> np.ndarray:
+    """Stacked 2×6 interaction matrices of normalised points xy (N, 2) at depths Z (N,)."""
+    xy = np.asarray(xy, float).reshape(-1, 2)
+    Z = np.broadcast_to(np.asarray(Z, float), (len(xy),))
+    x, y = xy[:, 0], xy[:, 1]
+    L = np.zeros((2 * len(xy), 6))
+    L[0::2] = np.stack([-1 / Z, 0 * x, x / Z, x * y, -(1 + x * x), y], 1)
+    L[1::2] = np.stack([0 * x, -1 / Z, y / Z, 1 + y * y, -x * y, -x], 1)
+    return L
+
+
+@dataclass(frozen=True)
+class IBVSConfig:
+    """Gain, interaction-matrix choice and controlled DOFs. Adaptive gain when lambda_inf is set."""
+
+    gain: float = 2.0  # λ (1/s), or λ(0) for the adaptive gain
+    gain_inf: float | None = None  # λ(∞); None = constant gain
+    gain_slope: float = 30.0  # λ'(0), slope of the adaptive gain at zero error
+    interaction: str = "mean"
+    depth: str = "scale"
+    dofs: tuple[str, ...] = ("vx", "vy", "vz", "wz")
+    predict_gain: float = 0.5  # multiplies λ while the tracker predicts (occlusion)
+    max_linear: float = 0.15  # m/s, per-axis command bound (reported when hit)
+    max_angular: float = 0.6  # rad/s
+
+    def __post_init__(self):
+        if not (isinstance(self.gain, (int, float)) and self.gain > 0 and math.isfinite(self.gain)):
+            raise ConfigError(f"gain must be a finite number > 0, got {self.gain!r}")
+        if self.gain_inf is not None and not 0 < self.gain_inf < self.gain:
+            raise ConfigError(f"gain_inf must be in (0, gain={self.gain}), got {self.gain_inf}")
+        if self.gain_slope <= 0:
+            raise ConfigError(f"gain_slope must be > 0, got {self.gain_slope}")
+        if self.interaction not in INTERACTION_AT:
+            raise choice_error("interaction matrix evaluation", self.interaction, INTERACTION_AT)
+        if self.depth not in DEPTH_SOURCES:
+            raise choice_error("depth source", self.depth, DEPTH_SOURCES)
+        if not self.dofs or any(d not in DOF_NAMES for d in self.dofs):
+            raise ConfigError(f"dofs {self.dofs} invalid; accepted: a subset of {', '.join(DOF_NAMES)}")
+        if not 0 <= self.predict_gain <= 1:
+            raise ConfigError(f"predict_gain must be in [0, 1], got {self.predict_gain}")
+        if self.max_linear <= 0 or self.max_angular <= 0:
+            raise ConfigError("max_linear and max_angular must be > 0")
+
+
+@dataclass
+class ControlOutput:
+    twist: np.ndarray  # (6,) camera frame
+    error: np.ndarray  # (2N,) normalised feature error s − s*
+    error_px: float  # mean corner distance to s* in pixels (what the controller sees)
+    gain: float
+    saturated: bool
+
+
+class IBVSController:
+    """Point-feature IBVS to fixed desired features s* (pixels), given intrinsics K."""
+
+    def __init__(self, K: np.ndarray, desired_px: np.ndarray, desired_depth: float, config: IBVSConfig = IBVSConfig()):
+        self.K = np.asarray(K, float)
+        self.config = config
+        self.desired_px = np.asarray(desired_px, float).reshape(-1, 2)
+        if not (np.isfinite(desired_depth) and desired_depth > 0):
+            raise ConfigError(f"desired depth must be > 0 m, got {desired_depth}")
+        self.desired_depth = float(desired_depth)
+        self.s_star = self.normalise(self.desired_px)
+        self.cols = [DOF_NAMES.index(d) for d in config.dofs]
+
+    def normalise(self, px: np.ndarray) -> np.ndarray:
+        K = self.K
+        return np.stack([(px[:, 0] - K[0, 2]) / K[0, 0], (px[:, 1] - K[1, 2]) / K[1, 1]], 1)
+
+    def gain(self, err_inf: float) -> float:
+        c = self.config
+        if c.gain_inf is None:
+            return c.gain
+        d = c.gain - c.gain_inf
+        return d * math.exp(-c.gain_slope * err_inf / d) + c.gain_inf
+
+    @staticmethod
+    def scale_of(points: np.ndarray) -> float:
+        """Size of a point set: RMS distance to its centroid (a similarity scale up to a constant)."""
+        return float(np.sqrt(((points - points.mean(0)) ** 2).sum(1).mean()))
+
+    def compute(self, features_px: np.ndarray, depths: np.ndarray | None = None, mode: str = "align") -> ControlOutput:
+        """Twist for the current features (pixels). depths: true per-point Z when config.depth == 'true'."""
+        f = np.asarray(features_px, float).reshape(-1, 2)
+        if f.shape != self.desired_px.shape or not np.isfinite(f).all():
+            raise InputError(f"features must be finite pixels of shape {self.desired_px.shape}, got {f.shape}")
+        s = self.normalise(f)
+        e = (s - self.s_star).reshape(-1)
+        err_px = float(np.linalg.norm(f - self.desired_px, axis=1).mean())
+        if self.config.depth == "true":
+            if depths is None or not np.all(np.asarray(depths) > 0):
+                raise InputError("depth='true' needs positive per-point depths from the simulator")
+            Z = np.asarray(depths, float)
+        else:  # depth from apparent size: Z = Z* · size(s*) / size(s)
+            Z = np.full(len(f), self.desired_depth * self.scale_of(self.s_star) / max(self.scale_of(s), 1e-9))
+        Zs = np.full(len(f), self.desired_depth)
+        if self.config.interaction == "current":
+            L = interaction_matrix(s, Z)
+        elif self.config.interaction == "desired":
+            L = interaction_matrix(self.s_star, Zs)
+        else:
+            L = 0.5 * (interaction_matrix(s, Z) + interaction_matrix(self.s_star, Zs))
+        lam = self.gain(float(np.abs(e).max()))
+        if mode == "predict":
+            lam *= self.config.predict_gain
+        twist = np.zeros(6)
+        if mode != "lost":
+            twist[self.cols] = -lam * (np.linalg.pinv(L[:, self.cols]) @ e)
+        limits = np.array([self.config.max_linear] * 3 + [self.config.max_angular] * 3)
+        ratio = float(np.max(np.abs(twist) / limits))
+        saturated = ratio > 1.0
+        if saturated:  # scale the whole twist: keeps its direction, and the record says so
+            twist = twist / ratio
+        return ControlOutput(twist, e, err_px, lam, saturated)

@@ -1,0 +1,49 @@
+"""One closed-loop episode end to end: loop + optional rerun logging + JSON summary."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+from hvs_sim.loop import LoopConfig, ServoLoop, StepRecord, summarize_run
+from hvs_sim.scene.scenarios import Scenario
+
+
+def run_episode(scenario: Scenario, tracker: str, config: LoopConfig = LoopConfig(), rrd: str | None = None,
+                spawn: bool = False, progress: bool = True, json_path: str | None = None,
+                keep_records: bool = False) -> tuple[dict, list[StepRecord]]:
+    """Run and summarise one episode; write an .rrd and/or JSON when paths are given."""
+    from tqdm.auto import tqdm
+
+    logger = None
+    loop = ServoLoop(scenario, tracker, config)
+    if rrd or spawn:
+        from hvs_sim.viz.rerun_log import RerunLogger, recording
+
+        if rrd:
+            Path(rrd).parent.mkdir(parents=True, exist_ok=True)
+        rec = recording("hvs_sim", rrd=rrd, spawn=spawn)
+        logger = RerunLogger(rec, loop.renderer.K, scenario.camera.width, scenario.camera.height,
+                             loop.renderer.target_corners_world())
+    records = []
+    bar = tqdm(total=config.steps, disable=not progress, desc=f"{scenario.name}/{tracker}", unit="step")
+    for r in loop:
+        t0 = time.perf_counter()
+        if logger is not None:
+            logger.log_step(r)
+        r.timings["log"] = 1e3 * (time.perf_counter() - t0)
+        if not keep_records:
+            r.frame = None
+        records.append(r)
+        bar.update(1)
+        bar.set_postfix(err=f"{r.error_px:.2f}px", mode=r.mode, occ=f"{r.occlusion:.0%}", refresh=False)
+    bar.close()
+    if logger is not None:
+        logger.rec.flush()
+    summary = {"scenario": scenario.name, "mount": scenario.mount, "seed": scenario.seed, "tracker": tracker,
+               **summarize_run(records, config), "logging_failed": bool(logger and logger.failed)}
+    if json_path:
+        Path(json_path).parent.mkdir(parents=True, exist_ok=True)
+        Path(json_path).write_text(json.dumps(summary, indent=2))
+    return summary, records

@@ -1,0 +1,1 @@
+"""Visualisation: rerun logging and matplotlib figures. Reads loop records; the core never imports it."""

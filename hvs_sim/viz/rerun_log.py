@@ -1,0 +1,112 @@
+"""rerun logging of closed-loop records.
+
+Entity paths:
+  world/camera                      camera pose (Transform3D, OpenCV axes) + Pinhole
+  world/camera/image                rendered frame
+  world/camera/image/tracked        tracked corners (green), .../ground_truth (white), .../desired (red)
+  world/trajectory                  the camera centre's path
+  world/target                      target outline in 3-D
+  plots/error_px, plots/tracker_error_px, plots/occlusion, plots/mode
+  plots/twist/{vx,vy,vz,wx,wy,wz}, plots/joint_velocity/j{1..6}
+Library code takes a RecordingStream; logging never raises into the loop.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import rerun as rr
+import rerun.blueprint as rrb
+
+from hvs_sim.loop import StepRecord
+
+log = logging.getLogger(__name__)
+MODE_CODE = {"align": 0, "predict": 1, "lost": 2, "fault": 3}
+TWIST = ("vx", "vy", "vz", "wx", "wy", "wz")
+
+
+def blueprint() -> rrb.Blueprint:
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Vertical(rrb.Spatial2DView(name="camera", origin="world/camera/image"),
+                         rrb.Spatial3DView(name="world", origin="world")),
+            rrb.Vertical(
+                rrb.TimeSeriesView(name="pixel error", origin="plots", contents=["plots/error_px", "plots/tracker_error_px"]),
+                rrb.TimeSeriesView(name="occlusion and mode", origin="plots", contents=["plots/occlusion", "plots/mode"]),
+                rrb.TimeSeriesView(name="camera twist", origin="plots/twist"),
+                rrb.TimeSeriesView(name="joint velocities", origin="plots/joint_velocity"),
+            ),
+            column_shares=[3, 2],
+        ),
+        collapse_panels=True,
+    )
+
+
+def recording(application_id: str = "hvs_sim", rrd: str | None = None, spawn: bool = False) -> rr.RecordingStream:
+    rec = rr.RecordingStream(application_id)
+    if spawn:
+        rec.spawn(default_blueprint=blueprint())
+    if rrd:
+        rec.save(rrd, default_blueprint=blueprint())
+    return rec
+
+
+class RerunLogger:
+    """Logs StepRecords to a RecordingStream. Failures are logged once and then ignored."""
+
+    def __init__(self, rec: rr.RecordingStream, K: np.ndarray, width: int, height: int, target_world: np.ndarray | None = None):
+        self.rec = rec
+        self.failed = False
+        self.path: list[np.ndarray] = []
+        self._guard(self._static, K, width, height, target_world)
+
+    def _guard(self, fn, *args) -> None:
+        if self.failed:
+            return
+        try:
+            fn(*args)
+        except Exception as exc:  # logging must never stop the loop
+            self.failed = True
+            log.warning("rerun logging disabled after error: %s", exc)
+
+    def _static(self, K, width, height, target_world) -> None:
+        rec = self.rec
+        rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        rec.log("world/camera", rr.Pinhole(image_from_camera=K, resolution=[width, height],
+                                           camera_xyz=rr.ViewCoordinates.RDF, image_plane_distance=0.15), static=True)
+        if target_world is not None:
+            rec.log("world/target", rr.LineStrips3D([np.vstack([target_world, target_world[:1]])], colors=[255, 200, 0]), static=True)
+        for name in TWIST:
+            rec.log(f"plots/twist/{name}", rr.SeriesLines(names=name), static=True)
+        rec.log("plots/error_px", rr.SeriesLines(names="ground-truth error to s* (px)", colors=[220, 50, 50]), static=True)
+        rec.log("plots/tracker_error_px", rr.SeriesLines(names="tracker corner error (px)", colors=[50, 160, 50]), static=True)
+        rec.log("plots/occlusion", rr.SeriesLines(names="true occlusion", colors=[120, 120, 120]), static=True)
+        rec.log("plots/mode", rr.SeriesPoints(names="mode (0 align, 1 predict, 2 lost, 3 fault)"), static=True)
+
+    def log_step(self, r: StepRecord) -> None:
+        self._guard(self._step, r)
+
+    def _step(self, r: StepRecord) -> None:
+        rec = self.rec
+        rec.set_time("step", sequence=r.step)
+        rec.set_time("sim_time", duration=r.time)
+        rec.log("world/camera", rr.Transform3D(translation=r.camera.t, mat3x3=r.camera.R))
+        self.path.append(r.camera.t.copy())
+        rec.log("world/trajectory", rr.LineStrips3D([np.array(self.path)], colors=[80, 140, 255]))
+        if r.frame is not None:
+            rec.log("world/camera/image", rr.Image(r.frame).compress(jpeg_quality=85))
+        closed = lambda p: [np.vstack([p, p[:1]])]  # noqa: E731
+        if np.all(np.isfinite(r.features)):
+            rec.log("world/camera/image/tracked", rr.LineStrips2D(closed(r.features), colors=[0, 255, 0]))
+        rec.log("world/camera/image/ground_truth", rr.LineStrips2D(closed(r.gt_features), colors=[255, 255, 255]))
+        rec.log("world/camera/image/desired", rr.LineStrips2D(closed(r.desired), colors=[255, 60, 60]))
+        rec.log("plots/error_px", rr.Scalars(r.error_px))
+        if np.isfinite(r.tracker_error_px):
+            rec.log("plots/tracker_error_px", rr.Scalars(r.tracker_error_px))
+        rec.log("plots/occlusion", rr.Scalars(r.occlusion))
+        rec.log("plots/mode", rr.Scalars(MODE_CODE.get(r.mode, 3)))
+        for name, v in zip(TWIST, r.twist):
+            rec.log(f"plots/twist/{name}", rr.Scalars(v))
+        for i, v in enumerate(r.qdot):
+            rec.log(f"plots/joint_velocity/j{i + 1}", rr.Scalars(v))

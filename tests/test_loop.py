@@ -1,0 +1,113 @@
+"""Closed loop, gymnasium environment and rerun recording."""
+
+import dataclasses
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import hvs_sim  # noqa: F401  (registers the environment)
+from hvs_sim.errors import HvsError
+from hvs_sim.loop import LoopConfig, ServoLoop, summarize_run
+from hvs_sim.runner import run_episode
+from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+
+SMALL = CameraConfig(width=320, height=240)
+
+
+@pytest.mark.parametrize("offset", [(0.03, -0.02, 0.06, 0.1), (-0.05, 0.03, -0.05, -0.2), (0.02, 0.04, 0.1, 0.0)])
+def test_ground_truth_features_converge_with_exponential_decrease(offset):
+    sc = make_scenario("clear", mount="arm", start_offset=offset, camera=SMALL)
+    cfg = LoopConfig(steps=110, keep_frames=False)
+    recs = list(ServoLoop(sc, "ground_truth", cfg))
+    err = np.array([r.error_px for r in recs])
+    s = summarize_run(recs, cfg)
+    assert s["converged"] and err[-1] < 0.5
+    # exponential decay: the error ratio over each 15-step window stays well below 1 in the first phase
+    ratios = err[15:75:15] / err[0:60:15]
+    assert np.all(ratios < 0.65), ratios
+    assert np.all(np.diff(err[8:60]) < 0.05)  # monotone once the joints have spun up (~0.25 s)
+
+
+def test_tracker_fault_stops_the_arm_and_is_recorded():
+    sc = make_scenario("clear", mount="arm", camera=SMALL)
+    loop = ServoLoop(sc, "deep_lk", LoopConfig(steps=4, keep_frames=False))
+
+    def broken(frame):
+        raise RuntimeError("boom")
+
+    loop.tracker.update = broken
+    recs = list(loop)
+    assert recs[0].fault is None
+    assert all(r.fault and "boom" in r.fault for r in recs[1:])
+    assert all(np.all(r.twist == 0) for r in recs[1:])
+    summary = summarize_run(recs, LoopConfig(steps=4))
+    assert summary["fault_steps"] == 3 and "RuntimeError: boom" in summary["faults"]
+
+
+@pytest.mark.parametrize("kwargs", [dict(steps=0), dict(steps=10**7), dict(steps=2.5)])
+def test_bad_loop_settings(kwargs):
+    with pytest.raises(HvsError, match="steps"):
+        LoopConfig(**kwargs)
+
+
+def test_bad_names_in_the_loop():
+    with pytest.raises(HvsError, match="ground_truth"):
+        ServoLoop(make_scenario("clear", mount="arm", camera=SMALL), "kcf")
+    with pytest.raises(HvsError, match="arm"):
+        ServoLoop(make_scenario("clear", mount="handheld", camera=SMALL), "deep_lk")
+
+
+def test_short_run_writes_rrd_with_documented_entities(tmp_path):
+    from rerun.chunk import RrdReader
+
+    rrd = tmp_path / "run.rrd"
+    summary, _ = run_episode(make_scenario("walk_by", mount="arm", camera=SMALL), "deep_lk",
+                             LoopConfig(steps=5), rrd=str(rrd), progress=False, json_path=str(tmp_path / "run.json"))
+    assert rrd.stat().st_size > 0 and (tmp_path / "run.json").exists()
+    for key in ("converged", "steps_to_converge", "final_error_px", "max_error_px_during_occlusion", "lost_steps", "timing"):
+        assert key in summary
+    assert {"physics", "render", "track", "control", "log"} <= set(summary["timing"])
+    paths = set(RrdReader(str(rrd)).store().schema().entity_paths())
+    expected = {"/world/camera", "/world/camera/image", "/world/camera/image/tracked", "/world/camera/image/ground_truth",
+                "/world/camera/image/desired", "/world/trajectory", "/world/target", "/plots/error_px",
+                "/plots/occlusion", "/plots/mode", "/plots/twist/vx", "/plots/joint_velocity/j1"}
+    assert expected <= paths, expected - paths
+
+
+def test_env_checker_passes_without_warnings():
+    import warnings
+
+    from gymnasium.utils.env_checker import check_env
+
+    env = gym.make("hvs_sim/VisualServo-v0", render_mode="rgb_array")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(env.unwrapped)
+    assert not caught, [str(w.message) for w in caught]
+    assert env.spec.max_episode_steps == 300
+
+
+def test_env_same_seed_same_rollout_and_reward_improves_when_servoing():
+    def rollout(seed):
+        env = gym.make("hvs_sim/VisualServo-v0")
+        obs, info = env.reset(seed=seed)
+        frames, rewards = [obs["image"]], []
+        for _ in range(5):
+            obs, rew, term, trunc, info = env.step(np.array([0.2, -0.1, 0.1, 0, 0, 0.1], np.float32))
+            frames.append(obs["image"])
+            rewards.append(rew)
+        return np.stack(frames), rewards
+
+    a, ra = rollout(7)
+    b, rb = rollout(7)
+    c, _ = rollout(8)
+    assert np.array_equal(a, b) and ra == rb
+    assert not np.array_equal(a[0], c[0])
+
+
+def test_env_rejects_bad_settings():
+    with pytest.raises(HvsError):
+        gym.make("hvs_sim/VisualServo-v0", action_type="torque")
+    with pytest.raises(HvsError):
+        gym.make("hvs_sim/VisualServo-v0", scenario="nope")
