@@ -71,6 +71,72 @@ def cmd_run(args) -> int:
     return 0
 
 
+def cmd_train(args) -> int:
+    from hvs_sim.learn import train
+
+    out = Path(args.out) if args.out else None
+    kwargs = {"out_dir": out} if out else {}
+    if args.what == "residual":
+        cfg = train.ResidualTrainConfig(**{k: v for k, v in (("sequences", args.sequences), ("frames_per_sequence", args.frames),
+                                                              ("epochs", args.epochs), ("seed", args.seed)) if v is not None})
+        meta = train.train_residual(cfg, **kwargs)
+        print(json.dumps({k: meta[k] for k in ("train_samples", "val_samples", "val_mse", "val_mse_without_residual", "seconds")}, indent=2))
+    else:
+        cfg = train.GRUTrainConfig(**{k: v for k, v in (("handheld_tracks", args.sequences), ("arm_tracks", args.sequences),
+                                                        ("track_length", args.frames), ("epochs", args.epochs), ("seed", args.seed))
+                                      if v is not None})
+        meta = train.train_gru(cfg, **kwargs)
+        print(json.dumps({k: meta[k] for k in ("train_windows", "val_windows", "val_position_error_px_after", "seconds")}, indent=2))
+    return 0
+
+
+def _provenance() -> dict:
+    import subprocess
+
+    try:
+        commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=True,
+                                cwd=Path(__file__).parent).stdout.strip()
+    except Exception:
+        commit = "unknown"
+    return {"command": "hvs-sim " + " ".join(sys.argv[1:]), "commit": commit}
+
+
+def cmd_bench(args) -> int:
+    if args.what == "track":
+        from hvs_sim.bench.track import METHODS, TrackBenchConfig, run_track_bench
+
+        if args.smoke:
+            cfg = TrackBenchConfig(methods=METHODS, scenarios=("walk_by",), mounts=("handheld",), seeds=(100,), frames=40,
+                                   workers=args.workers)
+        else:
+            cfg = TrackBenchConfig(workers=args.workers, **{k: tuple(v) for k, v in (("methods", args.methods),
+                                   ("scenarios", args.scenarios), ("mounts", args.mounts), ("seeds", args.seeds)) if v})
+        summary = run_track_bench(cfg, Path(args.out))
+        for m, v in summary["occlusion_scenarios"].items():
+            a = v["all"]
+            print(f"{m:18s} occlusion scenarios: {a['pct_le_1px']:5.1f}% ≤1px {a['pct_le_2px']:5.1f}% ≤2px "
+                  f"median {a['median_px']:.2f}px p95 {a['p95_px']:.1f}px | {a['median_ms']:.1f} ms median")
+    else:
+        from hvs_sim.bench.servo import ServoBenchConfig, run_servo_bench
+
+        if args.smoke:
+            cfg = ServoBenchConfig(trackers=("ground_truth", "hybrid"), scenarios=("walk_by",), episodes=1, steps=30,
+                                   workers=args.workers)
+        else:
+            cfg = ServoBenchConfig(workers=args.workers, episodes=args.episodes,
+                                   **{k: tuple(v) for k, v in (("trackers", args.methods), ("scenarios", args.scenarios)) if v})
+        summary = run_servo_bench(cfg, Path(args.out))
+        for s, per in summary["results"].items():
+            for t, r in per.items():
+                print(f"{s:8s} {t:18s} success {100 * r['success_rate']:5.1f}%  median final {r['median_final_error_px']:.2f} px")
+    path = Path(args.out) / "summary.json"
+    data = json.loads(path.read_text())
+    data["provenance"] = _provenance()
+    path.write_text(json.dumps(data, indent=2))
+    print(f"results: {args.out}/ (summary.json, table.md, figures)")
+    return 0
+
+
 def cmd_demo(args) -> int:
     parser = build_parser()
     out = Path(args.out)
@@ -98,6 +164,27 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--spawn", action="store_true", help="open the rerun viewer")
     p.set_defaults(func=cmd_run)
 
+    p = sub.add_parser("train", help="train the residual regressor or the GRU predictor on simulator data")
+    p.add_argument("what", choices=("residual", "gru"))
+    p.add_argument("--sequences", type=int, default=None, help="residual: rendered sequences; gru: tracks per kind")
+    p.add_argument("--frames", type=int, default=None, help="residual: frames per sequence; gru: track length")
+    p.add_argument("--epochs", type=int, default=None)
+    p.add_argument("--seed", type=int, default=None)
+    p.add_argument("--out", default=None, help="output folder (default: assets/weights, what the package ships)")
+    p.set_defaults(func=cmd_train)
+
+    p = sub.add_parser("bench", help="benchmarks: tracking accuracy (track) or closed-loop convergence (servo)")
+    p.add_argument("what", choices=("track", "servo"))
+    p.add_argument("--out", default=None, help="output folder (default: out/bench_<what>)")
+    p.add_argument("--smoke", action="store_true", help="a tiny version that runs in about a minute")
+    p.add_argument("--workers", type=int, default=1, help="processes (episodes and sequences are independent)")
+    p.add_argument("--methods", nargs="+", default=None, help="trackers to compare")
+    p.add_argument("--scenarios", nargs="+", default=None)
+    p.add_argument("--mounts", nargs="+", default=None, help="track only: handheld and/or arm")
+    p.add_argument("--seeds", nargs="+", type=int, default=None, help="track only")
+    p.add_argument("--episodes", type=int, default=10, help="servo only: episodes per scenario and tracker")
+    p.set_defaults(func=cmd_bench)
+
     p = sub.add_parser("demo", help="the README's demo on built-in defaults (headless, offline)")
     p.add_argument("--out", default="out/demo")
     p.set_defaults(func=cmd_demo)
@@ -106,6 +193,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if getattr(args, "command", None) == "bench" and args.out is None:
+        args.out = f"out/bench_{args.what}"
+    if getattr(args, "workers", 1) < 1:
+        print("hvs-sim: error: --workers must be >= 1", file=sys.stderr)
+        return 2
     try:
         return args.func(args)
     except HvsError as exc:

@@ -205,8 +205,13 @@ class Scene:
         self.frame_index = 0
         self._locked_lines: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         if self.is_arm:
-            q_home = _home_configuration(self)
-            q_start = self.solve_ik(*self.start_pose(), q0=q_home)
+            # continuation: walk the IK from the reference pose to the start pose in small steps, so
+            # the solution stays on the home branch and every solve starts close to its answer
+            q_start = _home_configuration(self)
+            ref = self.reference_pose()
+            for alpha in (0.25, 0.5, 0.75, 1.0):
+                offset = alpha * np.asarray(self.scenario.start_offset, float)
+                q_start = self.solve_ik(*offset_pose(*ref, offset), q0=q_start)
             self.physics.reset()
             self.physics.bind(self.rig.joints).qpos = q_start
             self.physics.bind(self.rig.actuators).ctrl = 0.0
@@ -232,8 +237,8 @@ def _solve_ik(root, physics, rig: ArmRig, position, R_cv, q0) -> np.ndarray:
     quat = mat_to_quat(opencv_to_mujoco(R_cv))
     res = inverse_kinematics.qpos_from_site_pose(
         scratch, rig.camera_site.full_identifier, target_pos=position, target_quat=quat,
-        joint_names=names, tol=1e-10, max_steps=400, inplace=True)
-    if not res.success and res.err_norm > 1e-6:
+        joint_names=names, tol=1e-10, max_steps=2000, inplace=True)
+    if not res.success and res.err_norm > 1e-5:
         raise ConfigError(f"camera pose {np.round(position, 3).tolist()} is out of the arm's reach (IK error {res.err_norm:.2g})")
     return scratch.bind(rig.joints).qpos.copy()
 

@@ -8,15 +8,24 @@ from __future__ import annotations
 from hvs_sim.errors import choice_error
 from hvs_sim.tracking.base import MODES, Track, Tracker
 
-TRACKER_NAMES = ("sift", "ecc", "deep_lk")
+TRACKER_NAMES = ("sift", "ecc", "deep_lk", "deep_lk_residual", "hybrid")
 
 
 def make_tracker(name: str, **config) -> Tracker:
     """A fresh tracker by name; keyword arguments go to the method's config dataclass."""
-    if name == "deep_lk":
+    if name in ("deep_lk", "deep_lk_residual"):
         from hvs_sim.tracking.deep_lk import DeepLKConfig, DeepLKTracker
 
-        return DeepLKTracker(DeepLKConfig(**config))
+        tracker = DeepLKTracker(DeepLKConfig(**{"residual": name == "deep_lk_residual", **config}))
+        tracker.name = name
+        return tracker
+    if name == "hybrid":
+        from hvs_sim.tracking.deep_lk import DeepLKConfig
+        from hvs_sim.tracking.hybrid import HybridConfig, HybridTracker
+
+        hybrid_keys = {"occlusion_gate", "predictor", "history", "max_predict_frames", "gru_weights"}
+        deep = DeepLKConfig(**{"residual": True, **{k: v for k, v in config.items() if k not in hybrid_keys}})
+        return HybridTracker(HybridConfig(deep=deep, **{k: v for k, v in config.items() if k in hybrid_keys}))
     if name == "sift":
         from hvs_sim.tracking.baselines import SiftTracker
 

@@ -19,7 +19,7 @@ from hvs_sim.tracking.frames import to_grey
 from hvs_sim.tracking.global_match import GlobalMatcher
 from hvs_sim.tracking.nets.vgg import vgg16_pool2
 from hvs_sim.tracking.occlusion import TAU_PIX, aligned_patch, occlusion_fraction
-from hvs_sim.tracking.warp import apply
+from hvs_sim.tracking.warp import apply, matrix_to_pose, pose_to_matrix
 
 
 def select_device(device: str) -> torch.device:
@@ -44,6 +44,8 @@ class DeepLKConfig:
     reinit_px: float = 2.0  # re-seed from the global match when it disagrees by more than this (work px)
     device: str = "cpu"
     weights: str | None = None  # VGG weights path (.npz of hvs_sim or torchvision's .pth); None = shipped
+    residual: bool = False  # refine the LK estimate with the residual regressor (the paper's "Deep LK+Δ")
+    residual_weights: str | None = None  # None = shipped assets/weights/residual.pt
 
     def __post_init__(self):
         if not 0.2 <= self.scale <= 1.0:
@@ -64,6 +66,13 @@ class DeepLKTracker(Tracker):
         self.net = vgg16_pool2(config.weights).to(self.device)
         self.matcher = GlobalMatcher(config.match_threshold)
         self.lk = FeatureICLK(config.lk)
+        self.residual_net = None
+        if config.residual:
+            if "pool2" not in config.lk.levels:
+                raise ConfigError("the residual regressor needs the pool2 LK level")
+            from hvs_sim.tracking.nets.residual import load_residual
+
+            self.residual_net = load_residual(config.residual_weights).to(self.device)
         s = config.scale
         self.S = np.array([[s, 0, 0.5 * s - 0.5], [0, s, 0.5 * s - 0.5], [0, 0, 1.0]])  # full → work pixels
         self.S_inv = np.linalg.inv(self.S)
@@ -131,6 +140,28 @@ class DeepLKTracker(Tracker):
         patch, inside = aligned_patch(work, A_work, self.t_origin, (self.th, self.tw))
         return occlusion_fraction(patch, self.template, inside, self.config.tau_pix)
 
+    def residual_inputs(self, feats, origin, M) -> tuple[torch.Tensor, torch.Tensor]:
+        """(256, rows, cols) template ⊕ aligned pool2 features and the warp [tx/ρ, ty/ρ, θ, s − 1].
+
+        Both feature maps are divided by the template's mean activation, so the regressor sees the
+        same scale whatever the flag's contrast.
+        """
+        template = self.lk.template_grid("pool2")
+        scale = template.mean().clamp_min(1e-6)
+        stacked = torch.cat([template, self.lk.aligned_grid(feats, origin, M, "pool2")], 0) / scale
+        pose = matrix_to_pose(M, (0.0, 0.0))  # normalised coordinates: centre at 0, unit ρ
+        warp = torch.tensor([pose[0], pose[1], pose[2], pose[3] - 1.0], dtype=torch.float32)
+        return stacked, warp
+
+    def refine(self, feats, origin, M) -> np.ndarray:
+        """Apply the regressor's Δp (ρ-scaled units, see nets/residual.py) to the LK warp M."""
+        stacked, warp = self.residual_inputs(feats, origin, M)
+        with torch.inference_mode():
+            d = self.residual_net(stacked[None].to(self.device), warp[None].to(self.device))[0].cpu().double().numpy()
+        pose = matrix_to_pose(M, (0.0, 0.0))
+        pose = pose + np.array([d[0], d[1], d[2], d[3]]) / self.rho
+        return pose_to_matrix(pose, (0.0, 0.0))
+
     def align(self, work: np.ndarray, A_work: np.ndarray):
         """Feature LK from A_work; returns (refined work warp or None when it cannot run, AlignResult)."""
         corners = apply(A_work, self.t_origin + np.array([[0, 0], [self.tw - 1, 0], [self.tw - 1, self.th - 1], [0, self.th - 1]]))
@@ -139,6 +170,8 @@ class DeepLKTracker(Tracker):
             return None, None
         feats = self.features(work, x0, y0, x1, y1)
         res = self.lk.align(feats, np.array([x0, y0], float), (y1 - y0, x1 - x0), self.N @ A_work @ self.N_inv)
+        if self.residual_net is not None and np.all(np.isfinite(res.M)):
+            res.M = self.refine(feats, np.array([x0, y0], float), res.M)
         A_new = self.N_inv @ res.M @ self.N
         scale = np.sqrt(abs(np.linalg.det(A_new[:2, :2])))
         moved = np.linalg.norm(apply(A_new, self.c_work[None]) - apply(A_work, self.c_work[None]))

@@ -58,6 +58,7 @@ class _Level:
     feats: torch.Tensor  # (N, C) template features
     sd: torch.Tensor  # (N·C, 4) steepest-descent images, point-major
     hess: np.ndarray  # (N, 16) per-point Gauss–Newton Hessians, flattened
+    grid: tuple[int, int]  # the points form this (rows, cols) block of feature cells, row-major
 
 
 @dataclass
@@ -91,6 +92,7 @@ class FeatureICLK:
             px = np.stack([origin[0] + s * jj + (s - 1) / 2.0, origin[1] + s * ii + (s - 1) / 2.0], -1).reshape(-1, 2)
             inside = (px[:, 0] >= lo[0]) & (px[:, 0] <= hi[0]) & (px[:, 1] >= lo[1]) & (px[:, 1] <= hi[1])
             ii, jj, px = ii.reshape(-1)[inside], jj.reshape(-1)[inside], px[inside]
+            grid = (len(np.unique(ii)), len(np.unique(jj)))
             if len(px) < 6:
                 raise ConfigError(f"template too small for LK level {name}: {len(px)} feature points")
             f = fmap[:, ii, jj].T.contiguous()  # (N, C)
@@ -102,7 +104,22 @@ class FeatureICLK:
             jy = torch.from_numpy(np.stack([pts[:, 1], pts[:, 0], np.zeros(len(pts)), np.ones(len(pts))], 1)).float()
             sd = (gx * self.rho)[:, :, None] * jx[:, None, :] + (gy * self.rho)[:, :, None] * jy[:, None, :]
             hess = torch.einsum("nci,ncj->nij", sd, sd).double().numpy().reshape(-1, 16)
-            self.levels.append(_Level(name, s, pts, f, sd.reshape(-1, 4).contiguous(), hess))
+            self.levels.append(_Level(name, s, pts, f, sd.reshape(-1, 4).contiguous(), hess, grid))
+
+    def level(self, name: str) -> _Level:
+        return next(lv for lv in self.levels if lv.name == name)
+
+    def template_grid(self, name: str) -> torch.Tensor:
+        """Template features of a level as a (C, rows, cols) map."""
+        lv = self.level(name)
+        return lv.feats.T.reshape(-1, *lv.grid)
+
+    def aligned_grid(self, feats: dict[str, torch.Tensor], origin: np.ndarray, M: np.ndarray, name: str) -> torch.Tensor:
+        """Image features sampled at the warped template points, as a (C, rows, cols) map."""
+        lv = self.level(name)
+        fmap = feats[name][0] if feats[name].dim() == 4 else feats[name]
+        sampled, _ = sample_points(fmap, self.to_work(M, lv.pts), origin, lv.stride)
+        return sampled.T.reshape(-1, *lv.grid)
 
     def to_work(self, M: np.ndarray, pts: np.ndarray) -> np.ndarray:
         return self.center + self.rho * (pts @ M[:2, :2].T + M[:2, 2])

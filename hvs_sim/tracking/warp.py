@@ -50,3 +50,18 @@ def project_similarity(A: np.ndarray) -> np.ndarray:
 def apply(A: np.ndarray, pts: np.ndarray) -> np.ndarray:
     pts = np.asarray(pts, float)
     return pts @ A[:2, :2].T + A[:2, 2]
+
+
+def fit_similarity(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+    """Least-squares similarity (3×3) taking points src → dst (Umeyama, no reflection)."""
+    src, dst = np.asarray(src, float), np.asarray(dst, float)
+    ms, md = src.mean(0), dst.mean(0)
+    a, b = src - ms, dst - md
+    denom = (a ** 2).sum()
+    c = (a * b).sum() / denom  # s·cosθ
+    s = (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]).sum() / denom  # s·sinθ
+    R = np.array([[c, -s], [s, c]])
+    A = np.eye(3)
+    A[:2, :2] = R
+    A[:2, 2] = md - R @ ms
+    return A

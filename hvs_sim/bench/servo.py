@@ -1,0 +1,120 @@
+"""`hvs-sim bench servo`: closed-loop convergence under occlusion from random initial offsets."""
+
+from __future__ import annotations
+
+import json
+import os
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from hvs_sim.loop import LoopConfig
+
+SERVO_TRACKERS = ("ground_truth", "hybrid", "deep_lk_residual", "deep_lk", "ecc")
+# initial offsets (camera frame): x, y within ±4 cm, depth −4…+10 cm, roll within ±0.25 rad
+OFFSET_LOW = np.array([-0.04, -0.04, -0.04, -0.25])
+OFFSET_HIGH = np.array([0.04, 0.04, 0.10, 0.25])
+
+
+@dataclass(frozen=True)
+class ServoBenchConfig:
+    trackers: tuple[str, ...] = SERVO_TRACKERS
+    scenarios: tuple[str, ...] = ("walk_by", "pause")
+    episodes: int = 10
+    seed0: int = 200
+    extra_steps: int = 60  # run this long past the scenario's end, to see the recovery
+    steps: int | None = None  # overrides scenario length + extra_steps (smoke runs)
+    success_px: float = 1.0
+    workers: int = 1
+
+
+def episode_offset(seed: int) -> tuple[float, ...]:
+    rng = np.random.default_rng([seed, 11])
+    return tuple(float(v) for v in rng.uniform(OFFSET_LOW, OFFSET_HIGH))
+
+
+def _episode(args):
+    import torch
+
+    from hvs_sim.runner import run_episode
+    from hvs_sim.scene.scenarios import make_scenario
+
+    scen_name, tracker, seed, steps, extra, keep = args
+    torch.set_num_threads(1 if os.environ.get("HVS_WORKERS", "1") != "1" else 2)
+    scen = make_scenario(scen_name, mount="arm", seed=seed, start_offset=episode_offset(seed))
+    n = steps if steps else scen.n_frames + extra
+    summary, records = run_episode(scen, tracker, LoopConfig(steps=n, keep_frames=False), progress=False)
+    summary["start_offset"] = list(scen.start_offset)
+    trace = None
+    if keep:
+        trace = [{"time": r.time, "error_px": r.error_px, "gt_features": r.gt_features.tolist(), "desired": r.desired.tolist(),
+                  "twist": r.twist.tolist(), "occlusion": r.occlusion} for r in records]
+    return (scen_name, tracker, seed), summary, trace
+
+
+def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) -> dict:
+    from tqdm.auto import tqdm
+
+    from hvs_sim.viz.figures import servo_figure
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    seeds = [config.seed0 + i for i in range(config.episodes)]
+    jobs = [(s, t, seed, config.steps, config.extra_steps, seed == seeds[0])
+            for s in config.scenarios for t in config.trackers for seed in seeds]
+    os.environ["HVS_WORKERS"] = str(config.workers)
+    episodes, traces = {}, {}
+    if config.workers > 1:
+        with ProcessPoolExecutor(config.workers) as pool:
+            it = pool.map(_episode, jobs)
+            for key, summ, trace in tqdm(it, total=len(jobs), disable=not progress, desc="bench servo", unit="episode"):
+                episodes[key], traces[key] = summ, trace
+    else:
+        for job in tqdm(jobs, disable=not progress, desc="bench servo", unit="episode"):
+            key, summ, trace = _episode(job)
+            episodes[key], traces[key] = summ, trace
+    summary = {"config": {k: list(v) if isinstance(v, tuple) else v for k, v in config.__dict__.items()},
+               "offset_range": {"low": OFFSET_LOW.tolist(), "high": OFFSET_HIGH.tolist(),
+                                "axes": "dx, dy, dz (m, camera frame), roll (rad)"},
+               "results": {}, "episodes": [dict(e) for e in episodes.values()]}
+    for s in config.scenarios:
+        for t in config.trackers:
+            eps = [episodes[(s, t, seed)] for seed in seeds]
+            ok = [e["converged"] and e["final_error_px"] <= config.success_px for e in eps]
+            conv = [e["seconds_to_converge"] for e in eps if e["converged"]]
+            occ = [e["max_error_px_during_occlusion"] for e in eps if e["max_error_px_during_occlusion"] is not None]
+            summary["results"].setdefault(s, {})[t] = {
+                "episodes": len(eps), "success_rate": float(np.mean(ok)),
+                "converged_rate": float(np.mean([e["converged"] for e in eps])),
+                "median_seconds_to_converge": float(np.median(conv)) if conv else None,
+                "median_final_error_px": float(np.median([e["final_error_px"] for e in eps])),
+                "max_final_error_px": float(np.max([e["final_error_px"] for e in eps])),
+                "median_max_error_during_occlusion_px": float(np.median(occ)) if occ else None,
+                "mean_lost_steps": float(np.mean([e["lost_steps"] for e in eps])),
+                "mean_predict_steps": float(np.mean([e["predict_steps"] for e in eps])),
+                "steps_per_second": float(np.median([e["steps_per_second"] for e in eps])),
+            }
+        servo_figure({t: traces[(s, t, seeds[0])] for t in config.trackers}, out / f"servo_{s}.png",
+                     f"{s}, seed {seeds[0]}: error to s*, true corner paths, camera velocity")
+    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    (out / "table.md").write_text(servo_table(summary, config))
+    return summary
+
+
+def servo_table(summary: dict, config: ServoBenchConfig) -> str:
+    lines = []
+    for s, per in summary["results"].items():
+        lines += [f"## {s} ({config.episodes} episodes per tracker, success = converged and final error ≤ {config.success_px} px)", "",
+                  "| tracker | success | converged | median time to converge (s) | median final error (px) | max final error (px) "
+                  "| median max error in occlusion (px) | lost steps | predict steps | steps/s |",
+                  "|---|---|---|---|---|---|---|---|---|---|"]
+        for t, r in per.items():
+            conv_t = "–" if r["median_seconds_to_converge"] is None else f"{r['median_seconds_to_converge']:.2f}"
+            occ = "–" if r["median_max_error_during_occlusion_px"] is None else f"{r['median_max_error_during_occlusion_px']:.1f}"
+            lines.append(f"| {t} | {100 * r['success_rate']:.0f} % | {100 * r['converged_rate']:.0f} % | {conv_t} | "
+                         f"{r['median_final_error_px']:.2f} | {r['max_final_error_px']:.2f} | {occ} | {r['mean_lost_steps']:.1f} | "
+                         f"{r['mean_predict_steps']:.1f} | {r['steps_per_second']:.1f} |")
+        lines.append("")
+    return "\n".join(lines)

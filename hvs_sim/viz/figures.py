@@ -1,0 +1,104 @@
+"""matplotlib figures of benchmark results (headless, Agg)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+COLORS = {"sift": "tab:purple", "ecc": "tab:orange", "deep_lk": "tab:blue", "deep_lk_residual": "tab:cyan",
+          "hybrid": "tab:red", "hybrid_cv": "tab:pink", "hybrid_hold": "tab:brown", "ground_truth": "black"}
+
+
+def track_triads(results: dict, config, out: Path) -> list[Path]:
+    """Per scenario, the paper's Fig. 7 triad: CDF of e_xy, e_xy over time with occlusion, e_xy vs occlusion."""
+    paths = []
+    for scen in config.scenarios:
+        keys = [k for k in results if k[0] == scen]
+        if not keys:
+            continue
+        fig, ax = plt.subplots(1, 3, figsize=(16, 4.6))
+        first = keys[0]
+        for m in config.methods:
+            err = np.concatenate([results[k][m]["error"][1:] for k in keys])
+            occ = np.concatenate([results[k][m]["occlusion"][1:] for k in keys])
+            c = COLORS.get(m)
+            xs = np.sort(err)
+            ax[0].plot(np.maximum(xs, 1e-3), np.arange(1, len(xs) + 1) / len(xs), label=m, color=c)
+            r = results[first][m]
+            ax[1].plot(np.arange(len(r["error"])), np.maximum(r["error"], 1e-3), label=m, color=c, lw=1.2)
+            ax[2].scatter(100 * occ, np.maximum(err, 1e-3), s=5, alpha=0.5, label=m, color=c)
+        occ0 = results[first][config.methods[0]]["occlusion"]
+        twin = ax[1].twinx()
+        twin.fill_between(np.arange(len(occ0)), 100 * occ0, color="grey", alpha=0.25, step="mid")
+        twin.set_ylim(0, 100)
+        twin.set_ylabel("true occlusion (%)")
+        for a in ax[[0]]:
+            a.axvline(2.0, ls="--", color="k", lw=0.8)
+            a.set_xscale("log")
+            a.set_xlabel("e_xy (px)")
+            a.set_ylabel("fraction of frames ≤ e_xy")
+            a.set_xlim(1e-2, 1e3)
+        for a in ax[1:]:
+            a.axhline(2.0, ls="--", color="k", lw=0.8)
+            a.set_yscale("log")
+            a.set_ylabel("e_xy (px)")
+            a.set_ylim(1e-3, 2e3)
+        ax[1].set_xlabel(f"frame ({first[1]}, seed {first[2]})")
+        ax[2].set_xlabel("true occlusion (%)")
+        ax[0].legend(fontsize=8, loc="lower right")
+        fig.suptitle(f"{scen}: CDF of e_xy | e_xy over time, occlusion shaded | e_xy vs occlusion")
+        fig.tight_layout()
+        p = Path(out) / f"fig7_{scen}.png"
+        fig.savefig(p, dpi=90)
+        plt.close(fig)
+        paths.append(p)
+    return paths
+
+
+def servo_figure(episodes: dict, out: Path, title: str) -> Path:
+    """Error norm over time, image-plane corner trajectories and camera velocity, one example per tracker."""
+    trackers = list(episodes)
+    fig, ax = plt.subplots(1, 3, figsize=(16, 4.6))
+    for t in trackers:
+        rec = episodes[t]
+        c = COLORS.get(t)
+        time = np.array([r["time"] for r in rec])
+        ax[0].plot(time, np.maximum([r["error_px"] for r in rec], 1e-3), label=t, color=c)
+        corners = np.array([r["gt_features"] for r in rec])
+        for j in range(4):
+            ax[1].plot(corners[:, j, 0], corners[:, j, 1], color=c, lw=1, label=t if j == 0 else None)
+        if t == trackers[-1]:
+            twist = np.array([r["twist"] for r in rec])
+            for j, n in enumerate(("vx", "vy", "vz", "wx", "wy", "wz")):
+                ax[2].plot(time, twist[:, j], label=n)
+            occ = np.array([r["occlusion"] for r in rec])
+            ax[0].fill_between(time, 1e-3, np.where(occ > 0, 1e3, 1e-3), color="grey", alpha=0.2, step="mid")
+    desired = np.array(episodes[trackers[0]][0]["desired"])
+    ax[1].scatter(desired[:, 0], desired[:, 1], marker="x", s=80, color="k", label="s*", zorder=5)
+    ax[0].axhline(0.5, ls="--", color="k", lw=0.8)
+    ax[0].set_yscale("log")
+    ax[0].set_ylim(1e-2, 2e2)
+    ax[0].set_xlabel("time (s)")
+    ax[0].set_ylabel("mean corner error to s* (px, ground truth)")
+    ax[0].legend(fontsize=8)
+    ax[1].invert_yaxis()
+    ax[1].set_aspect("equal")
+    ax[1].set_xlabel("u (px)")
+    ax[1].set_ylabel("v (px)")
+    ax[1].set_title("true corner trajectories")
+    ax[1].legend(fontsize=8)
+    ax[2].set_xlabel("time (s)")
+    ax[2].set_ylabel("camera twist (m/s, rad/s)")
+    ax[2].set_title(f"camera velocity ({trackers[-1]})")
+    ax[2].legend(fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    p = Path(out)
+    fig.savefig(p, dpi=90)
+    plt.close(fig)
+    return p
