@@ -9,7 +9,7 @@ from pathlib import Path
 
 from hvs_sim.errors import HvsError
 
-DEFAULT_TRACKER = "deep_lk"
+DEFAULT_TRACKER = "hybrid"
 
 
 def _scenario_from_args(args):

@@ -187,7 +187,7 @@ def train_gru(config: GRUTrainConfig = GRUTrainConfig(), out_dir: Path = WEIGHTS
         hold_err = position_errors(torch.zeros_like(Yv), Yv) * UNIT_PX
 
     def at(err):
-        return {f"{h}_frames": float(err[:, h - 1].mean()) for h in (1, 5, 10, config.horizon)}
+        return {f"{h}_frames": float(err[:, h - 1].mean()) for h in sorted({1, 5, 10, config.horizon}) if h <= config.horizon}
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     torch.save(net.state_dict(), out_dir / "gru.pt")

@@ -1,0 +1,52 @@
+"""Benchmarks at their --smoke size, through the CLI, and the demo entry point's outputs."""
+
+import json
+
+import pytest
+
+from hvs_sim.cli import main
+
+
+def test_bench_track_smoke_writes_summary_csv_figures_and_table(tmp_path):
+    out = tmp_path / "track"
+    assert main(["bench", "track", "--smoke", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["provenance"]["command"].startswith("hvs-sim bench track")
+    occ = summary["occlusion_scenarios"]
+    assert set(occ) == {"sift", "ecc", "deep_lk", "deep_lk_residual", "hybrid", "hybrid_cv"}
+    for m, v in occ.items():
+        for key in ("pct_le_1px", "pct_le_2px", "median_px", "p95_px", "max_px", "median_ms", "p95_ms", "pct_lost"):
+            assert key in v["all"], (m, key)
+    assert (out / "fig7_walk_by.png").stat().st_size > 10_000
+    assert (out / "frames.csv").read_text().count("\n") == 1 + 6 * 40
+    assert "| hybrid |" in (out / "table.md").read_text()
+
+
+def test_bench_servo_smoke_writes_summary_figure_and_table(tmp_path):
+    out = tmp_path / "servo"
+    assert main(["bench", "servo", "--smoke", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    r = summary["results"]["walk_by"]
+    assert set(r) == {"ground_truth", "hybrid"}
+    for key in ("success_rate", "median_final_error_px", "mean_lost_steps"):
+        assert key in r["hybrid"]
+    assert len(summary["episodes"]) == 2 and "start_offset" in summary["episodes"][0]
+    assert (out / "servo_walk_by.png").stat().st_size > 10_000
+    assert "| ground_truth |" in (out / "table.md").read_text()
+
+
+def test_cli_reports_bad_input_as_an_error_not_a_traceback(capsys):
+    assert main(["run", "--scenario", "nope", "--steps", "2"]) == 2
+    assert "accepted" in capsys.readouterr().err
+    assert main(["run", "--scenario", "clear", "--tracker", "kcf", "--steps", "2"]) == 2
+    assert main(["run", "--scenario", "clear", "--steps", "0"]) == 2
+    assert main(["bench", "track", "--smoke", "--workers", "0"]) == 2
+
+
+@pytest.mark.slow
+def test_scene_command_writes_frames_and_ground_truth(tmp_path):
+    out = tmp_path / "scene"
+    assert main(["scene", "--scenario", "pause", "--frames", "5", "--format", "png", "--out", str(out)]) == 0
+    assert len(list((out / "frames").glob("*.png"))) == 5
+    assert (out / "ground_truth.csv").read_text().count("\n") == 6
+    assert (out / "preview.png").exists() and (out / "ground_truth.npz").exists()
