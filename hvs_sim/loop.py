@@ -65,6 +65,7 @@ class StepRecord:
     limit_blocked: tuple[int, ...]
     fault: str | None
     timings: dict[str, float]  # ms per stage
+    people: list = field(default_factory=list)  # (feet position, orientation) of each person
 
 
 def _homography(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
@@ -143,7 +144,8 @@ class ServoLoop:
                 error_px=float(np.linalg.norm(gt_features - desired, axis=1).mean()),
                 tracker_error_px=float(np.linalg.norm(features - gt_features, axis=1).mean()) if fault is None else float("nan"),
                 occlusion=gt.occlusion, twist=twist, qdot=cmd.qdot, q=gt.joint_positions, camera=gt.camera, gain=gain,
-                saturated=sat or cmd.velocity_saturated, limit_blocked=cmd.limit_blocked, fault=fault, timings=timings)
+                saturated=sat or cmd.velocity_saturated, limit_blocked=cmd.limit_blocked, fault=fault, timings=timings,
+                people=scene.people_poses())
             t0 = time.perf_counter()
             scene.advance(cmd.qdot)
             timings["physics"] = 1e3 * (time.perf_counter() - t0)

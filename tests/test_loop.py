@@ -70,7 +70,7 @@ def test_short_run_writes_rrd_with_documented_entities(tmp_path):
     assert {"physics", "render", "track", "control", "log"} <= set(summary["timing"])
     paths = set(RrdReader(str(rrd)).store().schema().entity_paths())
     expected = {"/world/camera", "/world/camera/image", "/world/camera/image/tracked", "/world/camera/image/ground_truth",
-                "/world/camera/image/desired", "/world/trajectory", "/world/target", "/plots/error_px",
+                "/world/camera/image/desired", "/world/trajectory", "/world/target", "/world/occluder", "/plots/error_px",
                 "/plots/occlusion", "/plots/mode", "/plots/twist/vx", "/plots/joint_velocity/j1"}
     assert expected <= paths, expected - paths
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import multiprocessing
 import os
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -67,7 +68,8 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
     os.environ["HVS_WORKERS"] = str(config.workers)
     episodes, traces = {}, {}
     if config.workers > 1:
-        with ProcessPoolExecutor(config.workers) as pool:
+        # spawn, not fork: a forked child inherits torch's and EGL's threads half-initialised and hangs
+        with ProcessPoolExecutor(config.workers, mp_context=multiprocessing.get_context("spawn")) as pool:
             it = pool.map(_episode, jobs)
             for key, summ, trace in tqdm(it, total=len(jobs), disable=not progress, desc="bench servo", unit="episode"):
                 episodes[key], traces[key] = summ, trace

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import json
+import multiprocessing
 import os
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -20,10 +21,11 @@ import numpy as np
 from hvs_sim.bench.sequences import Sequence, make_sequence
 from hvs_sim.tracking import make_tracker
 
-METHODS = ("sift", "ecc", "deep_lk", "deep_lk_residual", "hybrid", "hybrid_cv")
+METHODS = ("sift", "ecc", "deep_lk", "deep_lk_residual", "hybrid", "hybrid_cv", "hybrid_continuity")
 SCENARIOS = ("clear", "walk_by", "pause", "partial", "two_people")
 OCCLUSION_SCENARIOS = ("walk_by", "pause", "partial", "two_people")
 METHOD_SPECS = {"hybrid_cv": ("hybrid", {"predictor": "constant_velocity"}),
+                "hybrid_continuity": ("hybrid", {"continuity": True}),
                 "hybrid_hold": ("hybrid", {"predictor": "hold"})}
 
 
@@ -100,7 +102,8 @@ def run_track_bench(config: TrackBenchConfig, out: Path, progress: bool = True) 
     results = {}
     os.environ["HVS_WORKERS"] = str(config.workers)
     if config.workers > 1:
-        with ProcessPoolExecutor(config.workers) as pool:
+        # spawn, not fork: a forked child inherits torch's and EGL's threads half-initialised and hangs
+        with ProcessPoolExecutor(config.workers, mp_context=multiprocessing.get_context("spawn")) as pool:
             for key, res in tqdm(pool.map(_job, jobs), total=len(jobs), disable=not progress, desc="bench track", unit="seq"):
                 results[key] = res
     else:

@@ -178,6 +178,11 @@ class Scene:
         qdot_max = np.asarray(self.physics.bind(self.rig.actuators).ctrlrange, float)[:, 1]
         return lower, upper, qdot_max
 
+    def people_poses(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """(position of the feet, 3×3 orientation) of each person."""
+        return [(self.physics.bind(p.body).xpos.copy(), self.physics.bind(p.body).xmat.reshape(3, 3).copy())
+                for p in self.people]
+
     @property
     def joint_positions(self) -> np.ndarray:
         if not self.is_arm:

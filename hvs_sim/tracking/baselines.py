@@ -85,5 +85,5 @@ class EccTracker(_GreyTemplate):
             score, W = cv2.findTransformECC(self.template, grey, W, cv2.MOTION_AFFINE, self.criteria, None, self.gauss)
         except cv2.error:  # raised when ECC does not converge or the frame is degenerate
             return Estimate(self.A, "lost", self.occlusion(grey, self.A), 0.0)
-        A = project_similarity(np.vstack([W, [0, 0, 1.0]]) @ np.linalg.inv(T))
+        A = project_similarity(np.vstack([W, [0, 0, 1.0]]) @ np.linalg.inv(T), self.center0)
         return Estimate(A, "align", self.occlusion(grey, A), float(score))

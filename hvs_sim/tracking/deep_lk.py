@@ -124,17 +124,32 @@ class DeepLKTracker(Tracker):
         lo, hi = self.t_origin - 0.5, self.t_origin + np.array([self.tw - 0.5, self.th - 0.5])
         self.lk.set_template(feats, np.array([x0, y0], float), self.c_work, self.rho, (lo, hi))
 
-    def coarse(self, work: np.ndarray):
-        """Global match, and the work-resolution warp seeded from it (θ, s kept from the last pose)."""
+    def coarse(self, work: np.ndarray, keep_current: bool = True):
+        """Global match, and the work-resolution warp to start from (θ, s kept from the last pose).
+
+        Two candidates: the current estimate, and the current estimate moved to the global match's
+        centre. OP_t is measured on the patch each of them aligns, and the one showing the target
+        best (lowest OP_t) wins: under partial occlusion the NCC peak can jump to another place
+        while the current estimate still sits on the visible part of the target.
+        With keep_current=False (the paper's Deep LK baseline) the global match alone decides.
+        Returns (match, seed warp, OP_t at the seed, whether the seed is the current estimate).
+        """
         m = self.matcher.match(work, self.template)
-        A_work = self.to_work(self.A)
-        if not np.all(np.isfinite(m.center)):
-            return m, A_work
-        predicted = apply(A_work, self.c_work[None])[0]
-        if np.linalg.norm(m.center - predicted) > self.config.reinit_px:
-            A_work = A_work.copy()
-            A_work[:2, 2] += m.center - predicted
-        return m, A_work
+        A_prev = self.to_work(self.A)
+        candidates = [A_prev]
+        if np.all(np.isfinite(m.center)):
+            predicted = apply(A_prev, self.c_work[None])[0]
+            if np.linalg.norm(m.center - predicted) > self.config.reinit_px:
+                A_ncc = A_prev.copy()
+                A_ncc[:2, 2] += m.center - predicted
+                candidates = [A_ncc, A_prev] if keep_current else [A_ncc]
+        best = None
+        for A in candidates:
+            op = self.occlusion(work, A)
+            if best is None or op < best[1]:
+                best = (A, op)
+        A, op = best
+        return m, A, op, A is A_prev
 
     def occlusion(self, work: np.ndarray, A_work: np.ndarray) -> float:
         patch, inside = aligned_patch(work, A_work, self.t_origin, (self.th, self.tw))
@@ -181,7 +196,7 @@ class DeepLKTracker(Tracker):
 
     def _update(self, frame) -> Estimate:
         work = self.work_image(frame)
-        m, A_work = self.coarse(work)
+        m, A_work, _, _ = self.coarse(work, keep_current=False)
         if m.score <= 0.0:
             return Estimate(self.A, "lost", 1.0, m.score)
         A_new, _ = self.align(work, A_work)

@@ -40,11 +40,14 @@ def matrix_to_pose(A: np.ndarray, center) -> np.ndarray:
     return np.array([t[0], t[1], math.atan2(b, a), math.hypot(a, b)])
 
 
-def project_similarity(A: np.ndarray) -> np.ndarray:
-    """Nearest similarity to an affine 3×3 (keeps the translation)."""
+def project_similarity(A: np.ndarray, center) -> np.ndarray:
+    """Nearest similarity to an affine 3×3 that maps `center` where the affine does."""
     a = 0.5 * (A[0, 0] + A[1, 1])
     b = 0.5 * (A[1, 0] - A[0, 1])
-    return np.array([[a, -b, A[0, 2]], [b, a, A[1, 2]], [0.0, 0.0, 1.0]])
+    c = np.asarray(center, float)
+    S = np.array([[a, -b, 0.0], [b, a, 0.0], [0.0, 0.0, 1.0]])
+    S[:2, 2] = A[:2, :2] @ c + A[:2, 2] - S[:2, :2] @ c
+    return S
 
 
 def apply(A: np.ndarray, pts: np.ndarray) -> np.ndarray:

@@ -11,7 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 COLORS = {"sift": "tab:purple", "ecc": "tab:orange", "deep_lk": "tab:blue", "deep_lk_residual": "tab:cyan",
-          "hybrid": "tab:red", "hybrid_cv": "tab:pink", "hybrid_hold": "tab:brown", "ground_truth": "black"}
+          "hybrid": "tab:red", "hybrid_cv": "tab:pink", "hybrid_continuity": "tab:olive", "hybrid_hold": "tab:brown", "ground_truth": "black"}
 
 
 def track_triads(results: dict, config, out: Path) -> list[Path]:

@@ -6,6 +6,7 @@ Entity paths:
   world/camera/image/tracked        tracked corners (green), .../ground_truth (white), .../desired (red)
   world/trajectory                  the camera centre's path
   world/target                      target outline in 3-D
+  world/occluder                    the people in front of it (boxes around their bodies)
   plots/error_px, plots/tracker_error_px, plots/occlusion, plots/mode
   plots/twist/{vx,vy,vz,wx,wy,wz}, plots/joint_velocity/j{1..6}
 Library code takes a RecordingStream; logging never raises into the loop.
@@ -24,6 +25,13 @@ from hvs_sim.loop import StepRecord
 log = logging.getLogger(__name__)
 MODE_CODE = {"align": 0, "predict": 1, "lost": 2, "fault": 3}
 TWIST = ("vx", "vy", "vz", "wx", "wy", "wz")
+
+
+def _quat_xyzw(R: np.ndarray) -> list[float]:
+    from hvs_sim.geometry import mat_to_quat
+
+    w, x, y, z = mat_to_quat(R)
+    return [x, y, z, w]
 
 
 def blueprint() -> rrb.Blueprint:
@@ -101,6 +109,11 @@ class RerunLogger:
             rec.log("world/camera/image/tracked", rr.LineStrips2D(closed(r.features), colors=[0, 255, 0]))
         rec.log("world/camera/image/ground_truth", rr.LineStrips2D(closed(r.gt_features), colors=[255, 255, 255]))
         rec.log("world/camera/image/desired", rr.LineStrips2D(closed(r.desired), colors=[255, 60, 60]))
+        if r.people:
+            centers = [p + R @ np.array([0.0, 0.0, 0.9]) for p, R in r.people]
+            quats = [rr.Quaternion(xyzw=_quat_xyzw(R)) for _, R in r.people]
+            rec.log("world/occluder", rr.Boxes3D(centers=centers, half_sizes=[[0.15, 0.3, 0.9]] * len(centers),
+                                                 quaternions=quats, colors=[200, 120, 80]))
         rec.log("plots/error_px", rr.Scalars(r.error_px))
         if np.isfinite(r.tracker_error_px):
             rec.log("plots/tracker_error_px", rr.Scalars(r.tracker_error_px))
