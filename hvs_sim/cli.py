@@ -90,7 +90,7 @@ def cmd_train(args) -> int:
     return 0
 
 
-def _provenance() -> dict:
+def _provenance(argv: list[str]) -> dict:
     import subprocess
 
     try:
@@ -98,7 +98,7 @@ def _provenance() -> dict:
                                 cwd=Path(__file__).parent).stdout.strip()
     except Exception:
         commit = "unknown"
-    return {"command": "hvs-sim " + " ".join(sys.argv[1:]), "commit": commit}
+    return {"command": "hvs-sim " + " ".join(argv), "commit": commit}
 
 
 def cmd_bench(args) -> int:
@@ -131,7 +131,7 @@ def cmd_bench(args) -> int:
                 print(f"{s:8s} {t:18s} success {100 * r['success_rate']:5.1f}%  median final {r['median_final_error_px']:.2f} px")
     path = Path(args.out) / "summary.json"
     data = json.loads(path.read_text())
-    data["provenance"] = _provenance()
+    data["provenance"] = _provenance(args.argv)
     path.write_text(json.dumps(data, indent=2))
     print(f"results: {args.out}/ (summary.json, table.md, figures)")
     return 0
@@ -192,7 +192,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser().parse_args(argv)
+    args.argv = argv
     if getattr(args, "command", None) == "bench" and args.out is None:
         args.out = f"out/bench_{args.what}"
     if getattr(args, "workers", 1) < 1:

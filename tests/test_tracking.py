@@ -203,7 +203,8 @@ def test_blank_and_fully_occluded_frames_give_lost_and_finite_pose(name):
     tr.init(img, ROI)
     for frame in (np.zeros_like(img), np.full_like(img, 128)):
         tk = tr.update(frame)
-        assert tk.mode == "lost"
+        # the hybrid bridges such frames with its motion predictor first (bounded, then "lost")
+        assert tk.mode in (("predict", "lost") if name == "hybrid" else ("lost",))
         assert np.isfinite(tk.pose).all() and np.isfinite(tk.center).all() and np.isfinite(tk.corners).all()
     covered = img.copy()
     covered[100:380, 150:500] = (200, 40, 160)  # something covers the whole target
