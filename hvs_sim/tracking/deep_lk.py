@@ -19,7 +19,7 @@ from hvs_sim.tracking.frames import to_grey
 from hvs_sim.tracking.global_match import GlobalMatcher
 from hvs_sim.tracking.nets.vgg import vgg16_pool2
 from hvs_sim.tracking.occlusion import TAU_PIX, aligned_patch, occlusion_fraction
-from hvs_sim.tracking.warp import apply, matrix_to_pose, pose_to_matrix
+from hvs_sim.tracking.warp import apply, matrix_to_pose, pose_to_matrix, similarity
 
 
 def select_device(device: str) -> torch.device:
@@ -42,6 +42,10 @@ class DeepLKConfig:
     lk: LKConfig = field(default_factory=LKConfig)
     margin: int = 8  # work px of context around the template / patch
     reinit_px: float = 2.0  # re-seed from the global match when it disagrees by more than this (work px)
+    # an alignment that turns or scales the target more than this from its seed in one frame is
+    # rejected (LK pulled by an occluder); a real 30 Hz camera does not move that fast
+    max_rotation_step: float = 0.1  # rad (5.7°)
+    max_scale_step: float = 0.08
     device: str = "cpu"
     weights: str | None = None  # VGG weights path (.npz of hvs_sim or torchvision's .pth); None = shipped
     residual: bool = False  # refine the LK estimate with the residual regressor (the paper's "Deep LK+Δ")
@@ -115,6 +119,8 @@ class DeepLKTracker(Tracker):
         self.tw, self.th = max(8, int(round(w * s))), max(8, int(round(h * s)))
         self.t_origin = self.c_work - np.array([(self.tw - 1) / 2.0, (self.th - 1) / 2.0])
         self.template, _ = aligned_patch(work, np.eye(3), self.t_origin, (self.th, self.tw))
+        self.init_work = work  # the template's view, to rectify the search template by the current θ, s
+        self.search_template, self._rectified_for = self.template, (0.0, 1.0)
         self.rho = max(self.tw, self.th) / 2.0
         self.N = np.array([[1 / self.rho, 0, -self.c_work[0] / self.rho], [0, 1 / self.rho, -self.c_work[1] / self.rho], [0, 0, 1]])
         self.N_inv = np.linalg.inv(self.N)
@@ -131,18 +137,32 @@ class DeepLKTracker(Tracker):
         centre. OP_t is measured on the patch each of them aligns, and the one showing the target
         best (lowest OP_t) wins: under partial occlusion the NCC peak can jump to another place
         while the current estimate still sits on the visible part of the target.
-        With keep_current=False (the paper's Deep LK baseline) the global match alone decides.
+        The search uses the template rectified by the current θ, s and the template as taken; a
+        match of the latter seeds θ = 0, s = 1. With keep_current=False (the paper's Deep LK
+        baseline) only global-match seeds are considered.
         Returns (match, seed warp, OP_t at the seed, whether the seed is the current estimate).
         """
-        m = self.matcher.match(work, self.template)
         A_prev = self.to_work(self.A)
-        candidates = [A_prev]
-        if np.all(np.isfinite(m.center)):
-            predicted = apply(A_prev, self.c_work[None])[0]
-            if np.linalg.norm(m.center - predicted) > self.config.reinit_px:
-                A_ncc = A_prev.copy()
-                A_ncc[:2, 2] += m.center - predicted
-                candidates = [A_ncc, A_prev] if keep_current else [A_ncc]
+        rectified = self.rectified_template()
+        matches = [(self.matcher.match(work, rectified), A_prev)]
+        if rectified is not self.template:  # also the template as taken, in case θ, s went wrong
+            matches.append((self.matcher.match(work, self.template), np.eye(3)))
+        m, best_shape = max(matches, key=lambda mk: mk[0].score)
+        c_prev = apply(A_prev, self.c_work[None])[0]
+        seeds = []
+        for match, A_shape in matches:
+            if not np.all(np.isfinite(match.center)):
+                continue
+            if A_shape is A_prev and np.linalg.norm(match.center - c_prev) <= self.config.reinit_px:
+                seeds.append((match, A_prev))  # agrees with the current estimate: keep its sub-pixel pose
+                continue
+            seed = A_shape.copy()
+            seed[:2, 2] += match.center - apply(A_shape, self.c_work[None])[0]
+            seeds.append((match, seed))
+        if keep_current:
+            candidates = [A_prev] + [sd for _, sd in seeds if sd is not A_prev]
+        else:
+            candidates = [sd for match, sd in seeds if match is m] or [A_prev]
         best = None
         for A in candidates:
             op = self.occlusion(work, A)
@@ -150,6 +170,24 @@ class DeepLKTracker(Tracker):
                 best = (A, op)
         A, op = best
         return m, A, op, A is A_prev
+
+    def rectified_template(self) -> np.ndarray:
+        """The template as it should look now: the init view rotated and scaled by the current θ, s.
+
+        NCC is not invariant to rotation and scale; while servoing the target grows or shrinks by
+        10 % and more, which would drag the score under the 0.6 gate. Re-made when θ or s moved
+        by more than 0.5° or 1 %.
+        """
+        _, _, theta, scale = matrix_to_pose(self.A, self.center0)
+        t0, s0 = self._rectified_for
+        if abs(theta - t0) > np.radians(0.5) or abs(scale / s0 - 1) > 0.01:
+            c = self.c_work
+            # a template pixel q (about the centre) shows init-view point c + R(−θ)(q − c)/s
+            R = similarity(0, 0, -theta, 1.0 / scale)
+            A = np.array([[1, 0, c[0]], [0, 1, c[1]], [0, 0, 1.0]]) @ R @ np.array([[1, 0, -c[0]], [0, 1, -c[1]], [0, 0, 1.0]])
+            self.search_template, _ = aligned_patch(self.init_work, A, self.t_origin, (self.th, self.tw))
+            self._rectified_for = (theta, scale)
+        return self.search_template
 
     def occlusion(self, work: np.ndarray, A_work: np.ndarray) -> float:
         patch, inside = aligned_patch(work, A_work, self.t_origin, (self.th, self.tw))
@@ -190,7 +228,9 @@ class DeepLKTracker(Tracker):
         A_new = self.N_inv @ res.M @ self.N
         scale = np.sqrt(abs(np.linalg.det(A_new[:2, :2])))
         moved = np.linalg.norm(apply(A_new, self.c_work[None]) - apply(A_work, self.c_work[None]))
-        if not np.all(np.isfinite(A_new)) or not 0.5 < scale < 2.0 or moved > self.rho or res.valid < 0.3:
+        _, _, d_theta, d_scale = matrix_to_pose(np.linalg.solve(A_work, A_new), self.c_work)
+        jump = abs(d_theta) > self.config.max_rotation_step or abs(d_scale - 1) > self.config.max_scale_step
+        if not np.all(np.isfinite(A_new)) or not 0.5 < scale < 2.0 or moved > self.rho or res.valid < 0.3 or jump:
             return None, res
         return A_new, res
 
