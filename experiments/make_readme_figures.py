@@ -26,9 +26,10 @@ def overlay(r) -> np.ndarray:
     for pts, col in ((r.desired, (60, 60, 255)), (r.gt_features, (255, 255, 255)), (r.features, (0, 255, 0))):
         if np.all(np.isfinite(pts)):
             cv2.polylines(img, [np.round(pts * 16).astype(np.int32)], True, col, 2, cv2.LINE_AA, shift=4)
-    label = f"t={r.time:.2f}s  mode={r.mode}  occlusion={r.occlusion:.0%}  error={r.error_px:.2f}px"
-    cv2.putText(img, label, (10, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (0, 0, 0), 3, cv2.LINE_AA)
-    cv2.putText(img, label, (10, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (255, 255, 255), 1, cv2.LINE_AA)
+    img = cv2.resize(img, (480, 360), interpolation=cv2.INTER_AREA)
+    label = f"t={r.time:.2f}s {r.mode} occl. {r.occlusion:.0%} err {r.error_px:.2f}px"
+    cv2.rectangle(img, (0, 0), (480, 30), (0, 0, 0), -1)
+    cv2.putText(img, label, (8, 21), cv2.FONT_HERSHEY_SIMPLEX, 0.55, (255, 255, 255), 1, cv2.LINE_AA)
     return img
 
 
@@ -42,7 +43,7 @@ def main() -> None:
                                 keep_records=True)
     occ = np.array([r.occlusion for r in recs])
     picks = [0, int(np.argmax(occ > 0.3)), int(np.argmax(occ)), len(recs) - 1]
-    tiles = [cv2.resize(overlay(recs[i]), (480, 360), interpolation=cv2.INTER_AREA) for i in picks]
+    tiles = [overlay(recs[i]) for i in picks]
     cv2.imwrite(str(out / "run_walk_by_hybrid_frames.png"), np.vstack([np.hstack(tiles[:2]), np.hstack(tiles[2:])]))
     t = np.array([r.time for r in recs])
     fig, ax = plt.subplots(figsize=(9, 3.4))
