@@ -10,19 +10,17 @@ import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
-import cv2
 import numpy as np
 
-from hvs_sim.bench.sequences import roi_from_corners
 from hvs_sim.control.arm import ArmLimits, camera_twist_to_world, twist_to_joint_velocities
 from hvs_sim.control.ibvs import IBVSConfig, IBVSController
 from hvs_sim.errors import ConfigError, choice_error
-from hvs_sim.render.camera import CameraPose, project
+from hvs_sim.render.camera import CameraPose, project, transfer_points
 from hvs_sim.render.renderer import GroundTruth, Renderer
 from hvs_sim.scene.scenarios import Scenario
 from hvs_sim.scene.world import Scene
 from hvs_sim.tracking import TRACKER_NAMES, Track, make_tracker
-from hvs_sim.tracking.frames import roi_corners
+from hvs_sim.tracking.frames import roi_corners, roi_from_corners
 
 LOOP_TRACKERS = ("ground_truth",) + TRACKER_NAMES
 MAX_STEPS = 100_000
@@ -68,14 +66,6 @@ class StepRecord:
     people: list = field(default_factory=list)  # (feet position, orientation) of each person
 
 
-def _homography(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
-    return cv2.getPerspectiveTransform(src.astype(np.float32), dst.astype(np.float32))
-
-
-def _map(H: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    return cv2.perspectiveTransform(pts.reshape(1, -1, 2).astype(np.float64), H)[0]
-
-
 class ServoLoop:
     """One closed-loop episode of a scenario with the arm mount and a named tracker."""
 
@@ -113,9 +103,9 @@ class ServoLoop:
                 flag0 = gt.corners
                 roi = roi_from_corners(flag0)
                 roi0 = roi_corners(roi)
-                desired = _map(_homography(flag0, self.flag_desired), roi0)
+                desired = transfer_points(flag0, self.flag_desired, roi0)
                 controller = IBVSController(r.K, desired, self.desired_depth, cfg.ibvs)
-            gt_features = _map(_homography(flag0, gt.corners), roi0)
+            gt_features = transfer_points(flag0, gt.corners, roi0)
             fault, track = None, None
             t0 = time.perf_counter()
             try:

@@ -1,6 +1,5 @@
 """Closed loop, gymnasium environment and rerun recording."""
 
-import dataclasses
 
 import gymnasium as gym
 import numpy as np

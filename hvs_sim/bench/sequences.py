@@ -9,12 +9,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
+from hvs_sim.render.camera import transfer_points
 from hvs_sim.render.sequence import render_sequence
 from hvs_sim.scene.scenarios import Scenario
-from hvs_sim.tracking.frames import roi_center
+from hvs_sim.tracking.frames import roi_center, roi_from_corners
 
 
 @dataclass
@@ -28,21 +28,8 @@ class Sequence:
     @property
     def gt_track(self) -> np.ndarray:
         """(N, 2) true image position of the ROI centre chosen at frame 0."""
-        c = roi_center(self.roi).reshape(1, 1, 2).astype(np.float64)
-        out = []
-        for k in range(len(self.corners)):
-            H = cv2.getPerspectiveTransform(self.corners[0].astype(np.float32), self.corners[k].astype(np.float32))
-            out.append(cv2.perspectiveTransform(c, H)[0, 0])
-        return np.array(out)
-
-
-def roi_from_corners(corners: np.ndarray) -> tuple[int, int, int, int]:
-    """Integer ROI inside the target's projected outline (axis-aligned box of its inner edges)."""
-    x0 = int(np.ceil(np.sort(corners[:, 0])[1]))
-    x1 = int(np.floor(np.sort(corners[:, 0])[2]))
-    y0 = int(np.ceil(np.sort(corners[:, 1])[1]))
-    y1 = int(np.floor(np.sort(corners[:, 1])[2]))
-    return x0, y0, x1 - x0 + 1, y1 - y0 + 1
+        c = roi_center(self.roi)[None]
+        return np.array([transfer_points(self.corners[0], corners, c)[0] for corners in self.corners])
 
 
 def make_sequence(scenario: Scenario, n_frames: int | None = None, progress: bool = False) -> Sequence:

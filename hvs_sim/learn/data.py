@@ -14,18 +14,17 @@ import cv2
 import numpy as np
 import torch
 
-from hvs_sim.bench.sequences import roi_from_corners
 from hvs_sim.control.arm import ArmLimits, camera_twist_to_world, twist_to_joint_velocities
 from hvs_sim.control.ibvs import IBVSConfig, IBVSController
 from hvs_sim.learn.augment import degrade
-from hvs_sim.render.camera import CameraPose, project
+from hvs_sim.render.camera import CameraPose, project, transfer_points
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.render.sequence import iterate_sequence
 from hvs_sim.scene.flag_art import FLAG_NAMES
 from hvs_sim.scene.scenarios import make_scenario
 from hvs_sim.scene.world import Scene
 from hvs_sim.tracking.deep_lk import DeepLKConfig, DeepLKTracker
-from hvs_sim.tracking.frames import roi_center, roi_corners
+from hvs_sim.tracking.frames import roi_center, roi_corners, roi_from_corners
 from hvs_sim.tracking.warp import apply, fit_similarity, matrix_to_pose, pose_to_matrix
 
 TRAIN_SEED0 = 1000
@@ -33,13 +32,10 @@ TRAIN_SEED0 = 1000
 
 def gt_similarity(corners0: np.ndarray, corners_t: np.ndarray, roi) -> np.ndarray:
     """Frame-from-template similarity: θ, s fitted to the ROI corners, translation of the ROI centre exact."""
-    H = cv2.getPerspectiveTransform(corners0.astype(np.float32), corners_t.astype(np.float32))
     rc = roi_corners(roi)
-    mapped = cv2.perspectiveTransform(rc.reshape(1, -1, 2), H)[0]
     c = roi_center(roi)
-    A = fit_similarity(rc, mapped)
-    pose = matrix_to_pose(A, c)
-    pose[:2] = cv2.perspectiveTransform(c.reshape(1, 1, 2), H)[0, 0] - c
+    pose = matrix_to_pose(fit_similarity(rc, transfer_points(corners0, corners_t, rc)), c)
+    pose[:2] = transfer_points(corners0, corners_t, c[None])[0] - c
     return pose_to_matrix(pose, c)
 
 
@@ -81,11 +77,13 @@ def residual_dataset(n_sequences: int, frames_per_sequence: int, seed0: int = TR
                 # a start like the global match gives: a few pixels, a degree or two, a few percent off
                 pert = pose_to_matrix((rng.normal(0, 2.0), rng.normal(0, 2.0), rng.normal(0, math.radians(1.5)),
                                        1 + rng.normal(0, 0.02)), c)
-                out = _lk_with_features(tracker, work, tracker.to_work(A_gt @ pert))
+                out = tracker.run_lk(work, tracker.to_work(A_gt @ pert))
                 bar.update(1)
-                if out is None:
+                if out is None or not np.all(np.isfinite(out[0].M)):
                     continue
-                M, stacked, warp = out
+                res, feats, origin = out
+                M = res.M
+                stacked, warp = tracker.residual_inputs(feats, origin, M)
                 M_gt = tracker.N @ tracker.to_work(A_gt) @ tracker.N_inv
                 label = tracker.rho * (matrix_to_pose(M_gt, (0, 0)) - matrix_to_pose(M, (0, 0)))
                 if np.linalg.norm(label[:2]) > 8:  # LK fell into another minimum: not a residual to learn
@@ -99,21 +97,6 @@ def residual_dataset(n_sequences: int, frames_per_sequence: int, seed0: int = TR
                                "kind": kinds, "flag": scen.target_flag, "seed": seed})
     bar.close()
     return {"groups": groups}
-
-
-def _lk_with_features(tracker: DeepLKTracker, work: np.ndarray, A_work: np.ndarray):
-    corners = apply(A_work, tracker.t_origin + np.array([[0, 0], [tracker.tw - 1, 0], [tracker.tw - 1, tracker.th - 1],
-                                                          [0, tracker.th - 1]]))
-    x0, y0, x1, y1 = tracker._crop_box(corners, work.shape)
-    if x1 - x0 < 16 or y1 - y0 < 16:
-        return None
-    feats = tracker.features(work, x0, y0, x1, y1)
-    origin = np.array([x0, y0], float)
-    res = tracker.lk.align(feats, origin, (y1 - y0, x1 - x0), tracker.N @ A_work @ tracker.N_inv)
-    if not np.all(np.isfinite(res.M)):
-        return None
-    stacked, warp = tracker.residual_inputs(feats, origin, res.M)
-    return res.M, stacked, warp
 
 
 # ------------------------------------------------------------------------------------------ GRU

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from hvs_sim.geometry import mujoco_to_opencv
@@ -37,6 +38,12 @@ class CameraPose:
         T = np.eye(4)
         T[:3, :3], T[:3, 3] = self.R, self.t
         return T
+
+
+def transfer_points(corners_from: np.ndarray, corners_to: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Map image points of a planar target through the homography between two views of its corners."""
+    H = cv2.getPerspectiveTransform(np.asarray(corners_from, np.float32), np.asarray(corners_to, np.float32))
+    return cv2.perspectiveTransform(np.asarray(pts, np.float64).reshape(1, -1, 2), H)[0]
 
 
 def project(K: np.ndarray, pose: CameraPose, points_world: np.ndarray) -> np.ndarray:

@@ -19,7 +19,7 @@ from hvs_sim.tracking.frames import to_grey
 from hvs_sim.tracking.global_match import GlobalMatcher
 from hvs_sim.tracking.nets.vgg import vgg16_pool2
 from hvs_sim.tracking.occlusion import TAU_PIX, aligned_patch, occlusion_fraction
-from hvs_sim.tracking.warp import apply, matrix_to_pose, pose_to_matrix, similarity
+from hvs_sim.tracking.warp import apply, matrix_to_pose, pose_to_matrix
 
 
 def select_device(device: str) -> torch.device:
@@ -68,7 +68,7 @@ class DeepLKTracker(Tracker):
         self.config = config
         self.device = select_device(config.device)
         self.net = vgg16_pool2(config.weights).to(self.device)
-        self.matcher = GlobalMatcher(config.match_threshold)
+        self.matcher = GlobalMatcher()
         self.lk = FeatureICLK(config.lk)
         self.residual_net = None
         if config.residual:
@@ -124,8 +124,9 @@ class DeepLKTracker(Tracker):
         self.rho = max(self.tw, self.th) / 2.0
         self.N = np.array([[1 / self.rho, 0, -self.c_work[0] / self.rho], [0, 1 / self.rho, -self.c_work[1] / self.rho], [0, 0, 1]])
         self.N_inv = np.linalg.inv(self.N)
-        rect_corners = self.t_origin + np.array([[0, 0], [self.tw - 1, 0], [self.tw - 1, self.th - 1], [0, self.th - 1]])
-        x0, y0, x1, y1 = self._crop_box(rect_corners, work.shape)
+        # centres of the template's corner pixels (work px): what the crop around a warp must hold
+        self.t_corners = self.t_origin + np.array([[0, 0], [self.tw - 1, 0], [self.tw - 1, self.th - 1], [0, self.th - 1]])
+        x0, y0, x1, y1 = self._crop_box(self.t_corners, work.shape)
         feats = self.features(work, x0, y0, x1, y1)
         lo, hi = self.t_origin - 0.5, self.t_origin + np.array([self.tw - 0.5, self.th - 0.5])
         self.lk.set_template(feats, np.array([x0, y0], float), self.c_work, self.rho, (lo, hi))
@@ -147,7 +148,7 @@ class DeepLKTracker(Tracker):
         matches = [(self.matcher.match(work, rectified), A_prev)]
         if rectified is not self.template:  # also the template as taken, in case θ, s went wrong
             matches.append((self.matcher.match(work, self.template), np.eye(3)))
-        m, best_shape = max(matches, key=lambda mk: mk[0].score)
+        m = max(matches, key=lambda mk: mk[0].score)[0]
         c_prev = apply(A_prev, self.c_work[None])[0]
         seeds = []
         for match, A_shape in matches:
@@ -181,10 +182,8 @@ class DeepLKTracker(Tracker):
         _, _, theta, scale = matrix_to_pose(self.A, self.center0)
         t0, s0 = self._rectified_for
         if abs(theta - t0) > np.radians(0.5) or abs(scale / s0 - 1) > 0.01:
-            c = self.c_work
-            # a template pixel q (about the centre) shows init-view point c + R(−θ)(q − c)/s
-            R = similarity(0, 0, -theta, 1.0 / scale)
-            A = np.array([[1, 0, c[0]], [0, 1, c[1]], [0, 0, 1.0]]) @ R @ np.array([[1, 0, -c[0]], [0, 1, -c[1]], [0, 0, 1.0]])
+            # a template pixel q (about the centre c) shows init-view point c + R(−θ)(q − c)/s
+            A = pose_to_matrix((0.0, 0.0, -theta, 1.0 / scale), self.c_work)
             self.search_template, _ = aligned_patch(self.init_work, A, self.t_origin, (self.th, self.tw))
             self._rectified_for = (theta, scale)
         return self.search_template
@@ -215,16 +214,24 @@ class DeepLKTracker(Tracker):
         pose = pose + np.array([d[0], d[1], d[2], d[3]]) / self.rho
         return pose_to_matrix(pose, (0.0, 0.0))
 
-    def align(self, work: np.ndarray, A_work: np.ndarray):
-        """Feature LK from A_work; returns (refined work warp or None when it cannot run, AlignResult)."""
-        corners = apply(A_work, self.t_origin + np.array([[0, 0], [self.tw - 1, 0], [self.tw - 1, self.th - 1], [0, self.th - 1]]))
-        x0, y0, x1, y1 = self._crop_box(corners, work.shape)
+    def run_lk(self, work: np.ndarray, A_work: np.ndarray):
+        """Plain feature LK from A_work on a crop around it: (AlignResult, crop features, crop origin),
+        or None when the crop is too small (target off the frame)."""
+        x0, y0, x1, y1 = self._crop_box(apply(A_work, self.t_corners), work.shape)
         if x1 - x0 < 16 or y1 - y0 < 16:
-            return None, None
+            return None
         feats = self.features(work, x0, y0, x1, y1)
-        res = self.lk.align(feats, np.array([x0, y0], float), (y1 - y0, x1 - x0), self.N @ A_work @ self.N_inv)
+        origin = np.array([x0, y0], float)
+        return self.lk.align(feats, origin, (y1 - y0, x1 - x0), self.N @ A_work @ self.N_inv), feats, origin
+
+    def align(self, work: np.ndarray, A_work: np.ndarray):
+        """Feature LK (+ residual) from A_work; returns (work warp, or None when it failed, AlignResult)."""
+        out = self.run_lk(work, A_work)
+        if out is None:
+            return None, None
+        res, feats, origin = out
         if self.residual_net is not None and np.all(np.isfinite(res.M)):
-            res.M = self.refine(feats, np.array([x0, y0], float), res.M)
+            res.M = self.refine(feats, origin, res.M)
         A_new = self.N_inv @ res.M @ self.N
         scale = np.sqrt(abs(np.linalg.det(A_new[:2, :2])))
         moved = np.linalg.norm(apply(A_new, self.c_work[None]) - apply(A_work, self.c_work[None]))

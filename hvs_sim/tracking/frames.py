@@ -65,3 +65,12 @@ def roi_corners(roi) -> np.ndarray:
     """Outer pixel edges of the ROI (TL, TR, BR, BL) in the pixel-centre convention."""
     x, y, w, h = roi
     return np.array([[x - 0.5, y - 0.5], [x + w - 0.5, y - 0.5], [x + w - 0.5, y + h - 0.5], [x - 0.5, y + h - 0.5]])
+
+
+def roi_from_corners(corners: np.ndarray) -> tuple[int, int, int, int]:
+    """Integer ROI inside the target's projected outline (axis-aligned box of its inner edges)."""
+    x0 = int(np.ceil(np.sort(corners[:, 0])[1]))
+    x1 = int(np.floor(np.sort(corners[:, 0])[2]))
+    y0 = int(np.ceil(np.sort(corners[:, 1])[1]))
+    y1 = int(np.floor(np.sort(corners[:, 1])[2]))
+    return x0, y0, x1 - x0 + 1, y1 - y0 + 1

@@ -34,12 +34,10 @@ def _subpixel(resp: np.ndarray, x: int, y: int) -> tuple[float, float]:
 class GlobalMatcher:
     """NCC search of a (rectified) grey template over a grey frame."""
 
-    def __init__(self, threshold: float = 0.6, coarse: int = 2, window: int = 6):
-        if not 0.0 < threshold < 1.0:
-            raise ConfigError(f"match threshold must be in (0, 1), got {threshold}")
+    def __init__(self, coarse: int = 2, window: int = 6):
         if coarse not in (1, 2, 4):
             raise ConfigError(f"coarse factor must be 1, 2 or 4, got {coarse}")
-        self.threshold, self.coarse, self.window = threshold, coarse, window
+        self.coarse, self.window = coarse, window
 
     def match(self, grey: np.ndarray, template: np.ndarray) -> Match:
         th, tw = template.shape

@@ -56,7 +56,6 @@ class HybridTracker(DeepLKTracker):
         self.hconfig = config
         self.predictor = make_predictor(config.predictor, config.history, config.gru_weights)
         self.predict_run = 0
-        self.last_route = "align"
 
     def _init(self, frame, roi) -> None:
         super()._init(frame, roi)
@@ -76,9 +75,7 @@ class HybridTracker(DeepLKTracker):
                 A = self.to_full(A_new)
                 self.predictor.observe(matrix_to_pose(A, self.center0)[:2])
                 self.predict_run = 0
-                self.last_route = "align"
                 return Estimate(A, "align", occ, m.score)
-        self.last_route = "predict"
         self.predict_run += 1
         if self.predict_run > self.hconfig.max_predict_frames:
             return Estimate(self.A, "lost", occ, m.score)
