@@ -23,7 +23,9 @@ def make_tracker(name: str, **config) -> Tracker:
         from hvs_sim.tracking.deep_lk import DeepLKConfig
         from hvs_sim.tracking.hybrid import HybridConfig, HybridTracker
 
-        hybrid_keys = {"occlusion_gate", "predictor", "history", "max_predict_frames", "gru_weights", "continuity"}
+        from dataclasses import fields
+
+        hybrid_keys = {f.name for f in fields(HybridConfig)} - {"deep"}
         deep = DeepLKConfig(**{"residual": True, **{k: v for k, v in config.items() if k not in hybrid_keys}})
         return HybridTracker(HybridConfig(deep=deep, **{k: v for k, v in config.items() if k in hybrid_keys}))
     if name == "sift":

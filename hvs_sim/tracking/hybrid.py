@@ -8,19 +8,35 @@ the residual regressor) and its translation joins the predictor's history; other
 (GRU by default) extrapolates the translation, holding θ and s. Re-acquisition is automatic: the
 global match runs every frame, so the first frame that passes the gate is aligned again.
 
-The predict path is bounded: after `max_predict_frames` consecutive predictions (default 45,
-1.5 s at 30 Hz) the mode becomes "lost" and the estimate stops moving until re-acquisition.
+Two changes to the paper, both on by default and both measured (README, tracking benchmark;
+`background=False, colour_occlusion=False` is the paper's hybrid as published):
+- Predicting from the scene around the target (`background`, background.py): while the target is
+  hidden the wall around it usually is not, so the predict path first moves the target's last
+  aligned pose by the similarity motion of the surroundings since that frame. That measures the
+  camera's motion, where the GRU can only extrapolate it (hand-held tremor is not predictable over
+  a 1.8 s occlusion). The GRU (or the configured predictor) takes over on frames where the
+  surroundings give no trustworthy motion (a person filling the whole view), continuing from the
+  last background-based positions.
+- OP_t over colour channels (`colour_occlusion`, occlusion.py): grey OP_t reported a flag half
+  covered by a brown sleeve as clear, so LK aligned on the sleeve.
+
+The extrapolating predictor is bounded: after `max_predict_frames` consecutive frames with neither
+an alignment nor a background measurement (default 45, 1.5 s at 30 Hz) the mode becomes "lost" and
+the estimate stops moving until re-acquisition.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 
 from hvs_sim.errors import ConfigError
+from hvs_sim.tracking.background import BackgroundConfig, BackgroundMotion
 from hvs_sim.tracking.base import Estimate
 from hvs_sim.tracking.deep_lk import DeepLKConfig, DeepLKTracker
+from hvs_sim.tracking.occlusion import aligned_patch, occlusion_fraction
 from hvs_sim.tracking.predictors import PREDICTORS, make_predictor
 from hvs_sim.tracking.warp import matrix_to_pose, pose_to_matrix
 
@@ -38,12 +54,18 @@ class HybridConfig:
     # occlusion but drift onto the occluder in others (README, tracking benchmark), so the paper's
     # rule (score ≥ 0.6 always) stays the default.
     continuity: bool = False
+    colour_occlusion: bool = True  # OP_t over colour channels (occlusion.py); False: grey, as the paper
+    background: bool = True  # predict from the surroundings' homography first (module docstring)
+    background_gate_px: float = 4.0  # a background step may differ this much from the motion model's
+    background_config: BackgroundConfig = field(default_factory=BackgroundConfig)
 
     def __post_init__(self):
         if not 0 < self.occlusion_gate <= 1:
             raise ConfigError(f"occlusion_gate must be in (0, 1], got {self.occlusion_gate}")
         if self.predictor not in PREDICTORS:
             raise ConfigError(f"unknown predictor {self.predictor!r}; accepted: {', '.join(PREDICTORS)}")
+        if not self.background_gate_px > 0:
+            raise ConfigError(f"background_gate_px must be > 0, got {self.background_gate_px}")
         if not isinstance(self.max_predict_frames, int) or self.max_predict_frames < 1:
             raise ConfigError(f"max_predict_frames must be an int >= 1, got {self.max_predict_frames!r}")
 
@@ -56,16 +78,44 @@ class HybridTracker(DeepLKTracker):
         self.hconfig = config
         self.predictor = make_predictor(config.predictor, config.history, config.gru_weights)
         self.predict_run = 0
+        self.background = BackgroundMotion(config.background_config) if config.background else None
+        self.keyframe = None  # (work image, full-res warp) of the last aligned frame
 
     def _init(self, frame, roi) -> None:
         super()._init(frame, roi)
         self.predictor.reset()
         self.predictor.observe(np.zeros(2))
         self.predict_run = 0
+        self.keyframe = (self.work_image(frame), np.eye(3))
+        self.template_rgb = None
+        if self.hconfig.colour_occlusion and frame.ndim == 3:
+            self.template_rgb, _ = aligned_patch(self.work_colour(frame), np.eye(3), self.t_origin, (self.th, self.tw))
+        if self.background is not None:
+            self.background.reset()
+
+    def work_colour(self, frame: np.ndarray) -> np.ndarray:
+        s = self.config.scale
+        return frame if s == 1.0 else cv2.resize(frame, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
+
+    def from_background(self, work: np.ndarray) -> np.ndarray | None:
+        """Full-res warp of the target: its keyframe warp moved by the scene's motion since then."""
+        bg = self.background
+        if bg is None or self.keyframe is None:
+            return None
+        key_work, A_key = self.keyframe
+        if not bg.active:
+            bg.start(key_work)
+        M = bg.update(work)
+        if M is None:
+            return None
+        return self.S_inv @ M @ self.S @ A_key  # (keyframe → this frame, full-res) ∘ keyframe warp
 
     def _update(self, frame) -> Estimate:
         work = self.work_image(frame)
         m, A_seed, occ, is_current = self.coarse(work)
+        if self.template_rgb is not None:  # OP_t in colour at the chosen seed (occlusion.py)
+            patch, inside = aligned_patch(self.work_colour(frame), A_seed, self.t_origin, (self.th, self.tw))
+            occ = occlusion_fraction(patch, self.template_rgb, inside, self.config.tau_pix)
         if m.score <= 0:  # blank or uniform frame
             occ = 1.0
         confident = m.score >= self.config.match_threshold or (self.hconfig.continuity and is_current)
@@ -75,10 +125,30 @@ class HybridTracker(DeepLKTracker):
                 A = self.to_full(A_new)
                 self.predictor.observe(matrix_to_pose(A, self.center0)[:2])
                 self.predict_run = 0
+                self.keyframe = (work, A)
+                if self.background is not None:
+                    self.background.reset()
                 return Estimate(A, "align", occ, m.score)
+        expected = self.predictor.predict()  # the motion model's guess for this frame
+        A_bg = self.from_background(work)
+        if A_bg is not None:
+            t_bg = matrix_to_pose(A_bg, self.center0)[:2]
+            # a person filling most of the view can out-vote the scene in RANSAC; their motion is
+            # far from any camera motion the model expects (wider gate after unmeasured frames)
+            if np.linalg.norm(t_bg - expected) <= self.hconfig.background_gate_px * (1 + self.predict_run):
+                self.predictor.observe(t_bg)
+                self.predict_run = 0
+                return Estimate(A_bg, "predict", occ, m.score)
         self.predict_run += 1
         if self.predict_run > self.hconfig.max_predict_frames:
-            return Estimate(self.A, "lost", occ, m.score)
-        pose = matrix_to_pose(self.A, self.center0)
-        pose[:2] = self.predictor.predict()
-        return Estimate(pose_to_matrix(pose, self.center0), "predict", occ, m.score)
+            A = self.A
+            mode = "lost"
+        else:
+            pose = matrix_to_pose(self.A, self.center0)
+            pose[:2] = expected
+            A = pose_to_matrix(pose, self.center0)
+            mode = "predict"
+        if self.background is not None:  # restart the scene's chain here, from this estimate
+            self.keyframe = (work, A)
+            self.background.reset()
+        return Estimate(A, mode, occ, m.score)
