@@ -90,7 +90,7 @@ def test_routing_occluded_frame_goes_to_predict_clean_frame_to_align():
 @pytest.mark.parametrize("predictor,bound", [("constant_velocity", 0.5), ("gru", 10.0)])
 def test_full_occlusion_of_a_moving_target_keeps_the_prediction_close(predictor, bound):
     img = photo()
-    tr = make_tracker("hybrid", predictor=predictor)
+    tr = make_tracker("hybrid", predictor=predictor, background=False)  # the predictor alone
     tr.init(img, ROI)
     v = np.array([1.2, -0.6])  # px per frame
     for k in range(1, 16):
@@ -112,7 +112,7 @@ def test_full_occlusion_of_a_moving_target_keeps_the_prediction_close(predictor,
 
 def test_predict_path_is_bounded_then_lost_and_still():
     img = photo()
-    tr = make_tracker("hybrid", predictor="constant_velocity", max_predict_frames=5)
+    tr = make_tracker("hybrid", predictor="constant_velocity", max_predict_frames=5)  # blank: no background either
     tr.init(img, ROI)
     for k in range(1, 6):
         tr.update(shift(img, 2.0 * k, 0))

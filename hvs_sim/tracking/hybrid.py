@@ -56,7 +56,7 @@ class HybridConfig:
     continuity: bool = False
     colour_occlusion: bool = True  # OP_t over colour channels (occlusion.py); False: grey, as the paper
     background: bool = True  # predict from the surroundings' homography first (module docstring)
-    background_gate_px: float = 4.0  # a background step may differ this much from the motion model's
+    background_gate_px: float = 8.0  # most a background-measured step may move the target (px/frame)
     background_config: BackgroundConfig = field(default_factory=BackgroundConfig)
 
     def __post_init__(self):
@@ -129,16 +129,17 @@ class HybridTracker(DeepLKTracker):
                 if self.background is not None:
                     self.background.reset()
                 return Estimate(A, "align", occ, m.score)
-        expected = self.predictor.predict()  # the motion model's guess for this frame
         A_bg = self.from_background(work)
         if A_bg is not None:
             t_bg = matrix_to_pose(A_bg, self.center0)[:2]
-            # a person filling most of the view can out-vote the scene in RANSAC; their motion is
-            # far from any camera motion the model expects (wider gate after unmeasured frames)
-            if np.linalg.norm(t_bg - expected) <= self.hconfig.background_gate_px * (1 + self.predict_run):
+            # a person filling most of the view can out-vote the scene in RANSAC; they move far
+            # more per frame than a hand-held or servoed camera does (gate widens per unmeasured frame)
+            moved = np.linalg.norm(t_bg - matrix_to_pose(self.A, self.center0)[:2])
+            if moved <= self.hconfig.background_gate_px * (1 + self.predict_run):
                 self.predictor.observe(t_bg)
                 self.predict_run = 0
                 return Estimate(A_bg, "predict", occ, m.score)
+        expected = self.predictor.predict()
         self.predict_run += 1
         if self.predict_run > self.hconfig.max_predict_frames:
             A = self.A

@@ -1,0 +1,92 @@
+"""The hybrid's scene-motion predict path (tracking/background.py) and colour OP_t."""
+
+import cv2
+import numpy as np
+import pytest
+
+from hvs_sim.errors import HvsError
+from hvs_sim.tracking import make_tracker
+from hvs_sim.tracking.background import BackgroundConfig, BackgroundMotion
+from hvs_sim.tracking.frames import roi_center
+from hvs_sim.tracking.occlusion import occlusion_fraction
+from hvs_sim.tracking.warp import apply, similarity
+from test_learned import ROI, photo, shift
+
+H, W = 480, 640
+
+
+def warp(img, A):
+    return cv2.warpAffine(img, A[:2], (img.shape[1], img.shape[0]), flags=cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT)
+
+
+def test_background_motion_recovers_a_similarity_past_a_moving_occluder():
+    grey = cv2.cvtColor(photo(), cv2.COLOR_RGB2GRAY)
+    grey = cv2.resize(grey, None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
+    c = np.array([grey.shape[1], grey.shape[0]]) / 2
+    bg = BackgroundMotion()
+    bg.start(grey)
+    true = np.eye(3)
+    rng = np.random.default_rng(0)
+    for k in range(1, 13):
+        step = similarity(*rng.normal(0, 0.6, 2), rng.normal(0, 0.002), 1 + rng.normal(0, 0.002))
+        step = np.array([[1, 0, c[0]], [0, 1, c[1]], [0, 0, 1]]) @ step @ np.array([[1, 0, -c[0]], [0, 1, -c[1]], [0, 0, 1]])
+        true = step @ true
+        frame = warp(grey, true)
+        x = 40 + 9 * k  # a textured "person" 35 % of the view wide, moving on its own
+        frame[:, x:x + 110] = np.tile(np.linspace(40, 90, 110, dtype=np.uint8), (grey.shape[0], 1))
+        M = bg.update(frame)
+        assert M is not None
+    pts = np.array([[80.0, 60.0], [240.0, 180.0], [160.0, 120.0]])
+    # 12 chained steps, reflected borders and the occluder's edges: within a quarter of a work pixel
+    assert np.abs(apply(M, pts) - apply(true, pts)).max() < 0.25
+
+
+def test_background_motion_has_nothing_to_measure_on_a_uniform_view():
+    bg = BackgroundMotion()
+    bg.start(np.full((240, 320), 90, np.uint8))
+    assert bg.update(np.full((240, 320), 90, np.uint8)) is None
+    assert bg.update(np.full((240, 320), 90, np.uint8)) is None  # and stays so, without error
+
+
+@pytest.mark.parametrize("bad", [dict(hop=0), dict(min_inliers=2), dict(min_inlier_ratio=0.0), dict(max_points=4)])
+def test_bad_background_settings_are_clear(bad):
+    with pytest.raises(HvsError):
+        BackgroundConfig(**bad)
+    with pytest.raises(HvsError, match="background_gate_px"):
+        make_tracker("hybrid", background_gate_px=0.0)
+
+
+def test_hidden_target_follows_unpredictable_camera_motion_from_its_surroundings():
+    """Hand-held tremor as a random walk: no predictor can extrapolate it, the surroundings show it."""
+    img = photo()
+    rng = np.random.default_rng(3)
+    path = np.cumsum(rng.normal(0, 1.0, (41, 2)), axis=0)
+    path -= path[0]
+    x, y, w, h = ROI
+    errors = {}
+    for background in (True, False):
+        tr = make_tracker("hybrid", background=background)
+        tr.init(img, ROI)
+        for k in range(1, 11):
+            assert tr.update(shift(img, *path[k])).mode == "align"
+        errs = []
+        for k in range(11, 41):  # one second with the target fully hidden
+            f = shift(img, *path[k])
+            cx, cy = roi_center(ROI) + path[k]
+            f[int(cy - 0.7 * h):int(cy + 0.7 * h), int(cx - 0.7 * w):int(cx + 0.7 * w)] = (128, 0, 128)
+            tk = tr.update(f)
+            assert tk.mode == "predict"
+            errs.append(np.linalg.norm(tk.center - (roi_center(ROI) + path[k])))
+        errors[background] = max(errs)
+    assert errors[True] <= 0.5, errors
+    assert errors[False] > 2 * errors[True], errors  # the GRU alone cannot know a random walk
+
+
+def test_colour_occlusion_sees_a_cover_of_the_same_grey_level():
+    red = np.zeros((40, 60, 3), np.uint8)
+    red[..., 0] = 200  # RGB red, grey ≈ 60
+    covered = red.copy()
+    covered[:, :30] = (60, 60, 60)  # neutral grey of the same grey level over half of it
+    grey = lambda im: cv2.cvtColor(im, cv2.COLOR_RGB2GRAY)
+    assert occlusion_fraction(grey(covered), grey(red)) < 0.05
+    assert occlusion_fraction(covered, red) == pytest.approx(0.5, abs=0.02)
