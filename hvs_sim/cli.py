@@ -116,6 +116,9 @@ def cmd_bench(args) -> int:
             a = v["all"]
             print(f"{m:18s} occlusion scenarios: {a['pct_le_1px']:5.1f}% ≤1px {a['pct_le_2px']:5.1f}% ≤2px "
                   f"median {a['median_px']:.2f}px p95 {a['p95_px']:.1f}px | {a['median_ms']:.1f} ms median")
+        for m, v in summary.get("target_set", {}).items():
+            print(f"{m:18s} target set (hand-held walk_by, pause, partial): {v['all']['pct_le_2px']:5.1f}% ≤2px, "
+                  f"{v['visible_lt_40']['pct_le_2px']:5.1f}% of frames with occlusion < 40 % ≤2px")
     else:
         from hvs_sim.bench.servo import ServoBenchConfig, run_servo_bench
 

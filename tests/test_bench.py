@@ -13,12 +13,13 @@ def test_bench_track_smoke_writes_summary_csv_figures_and_table(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["provenance"]["command"].startswith("hvs-sim bench track")
     occ = summary["occlusion_scenarios"]
-    assert set(occ) == {"sift", "ecc", "deep_lk", "deep_lk_residual", "hybrid", "hybrid_cv", "hybrid_continuity"}
+    methods = {"sift", "ecc", "deep_lk", "deep_lk_residual", "hybrid", "hybrid_paper", "hybrid_grey", "hybrid_cv"}
+    assert set(occ) == methods
     for m, v in occ.items():
         for key in ("pct_le_1px", "pct_le_2px", "median_px", "p95_px", "max_px", "median_ms", "p95_ms", "pct_lost"):
             assert key in v["all"], (m, key)
     assert (out / "fig7_walk_by.png").stat().st_size > 10_000
-    assert (out / "frames.csv").read_text().count("\n") == 1 + 7 * 40
+    assert (out / "frames.csv").read_text().count("\n") == 1 + len(methods) * 40
     assert "| hybrid |" in (out / "table.md").read_text()
 
 
