@@ -57,19 +57,10 @@ class BackgroundMotion:
 
     @property
     def active(self) -> bool:
-        return self.prev is not None
+        return bool(self.chain)
 
     def reset(self) -> None:
         self.chain: deque[tuple[np.ndarray, np.ndarray]] = deque(maxlen=self.config.hop)  # (frame, keyframe → frame)
-        self.inliers = 0
-
-    @property
-    def prev(self):
-        return self.chain[-1][0] if self.chain else None
-
-    @property
-    def M(self):
-        return self.chain[-1][1] if self.chain else np.eye(3)
 
     def start(self, key: np.ndarray) -> None:
         self.reset()
@@ -92,8 +83,7 @@ class BackgroundMotion:
         if S is None or not np.all(np.isfinite(S)):
             return None
         S = np.vstack([S, [0.0, 0.0, 1.0]])
-        self.inliers = int(mask.sum())
-        if self.inliers < max(c.min_inliers, c.min_inlier_ratio * ok.sum()):
+        if int(mask.sum()) < max(c.min_inliers, c.min_inlier_ratio * ok.sum()):
             return None
         return S
 
