@@ -48,7 +48,7 @@ def test_background_motion_has_nothing_to_measure_on_a_uniform_view():
     assert bg.update(np.full((240, 320), 90, np.uint8)) is None  # and stays so, without error
 
 
-@pytest.mark.parametrize("bad", [dict(hop=0), dict(min_inliers=2), dict(min_inlier_ratio=0.0), dict(max_points=4)])
+@pytest.mark.parametrize("bad", [dict(hop=0), dict(keyframes=0), dict(max_fb_px=0.0), dict(min_inliers=2), dict(min_inlier_ratio=0.0), dict(max_points=4)])
 def test_bad_background_settings_are_clear(bad):
     with pytest.raises(HvsError):
         BackgroundConfig(**bad)
@@ -90,3 +90,33 @@ def test_colour_occlusion_sees_a_cover_of_the_same_grey_level():
     grey = lambda im: cv2.cvtColor(im, cv2.COLOR_RGB2GRAY)
     assert occlusion_fraction(grey(covered), grey(red)) < 0.05
     assert occlusion_fraction(covered, red) == pytest.approx(0.5, abs=0.02)
+
+
+def test_estimate_is_re_anchored_when_the_view_returns_after_a_blackout():
+    """A person filling the whole view: the predictor alone drifts; the first frames with the wall
+    visible again (target still covered) are measured against aligned keyframes, not chained on
+    from the drifted estimate."""
+    img = photo()
+    rng = np.random.default_rng(5)
+    path = np.cumsum(rng.normal(0, 1.0, (41, 2)), axis=0)
+    path -= path[0]
+    x, y, w, h = ROI
+    errors = {}
+    for reanchor in (True, False):
+        tr = make_tracker("hybrid", reanchor=reanchor)
+        tr.init(img, ROI)
+        for k in range(1, 11):
+            assert tr.update(shift(img, *path[k])).mode == "align"
+        for k in range(11, 26):  # nothing to see
+            assert tr.update(np.full_like(img, 90)).mode in ("predict", "lost")
+        errs = []
+        for k in range(26, 36):  # the wall again, the target still covered
+            f = shift(img, *path[k])
+            cx, cy = roi_center(ROI) + path[k]
+            f[int(cy - 0.7 * h):int(cy + 0.7 * h), int(cx - 0.7 * w):int(cx + 0.7 * w)] = (128, 0, 128)
+            tk = tr.update(f)
+            assert tk.mode == "predict"
+            errs.append(np.linalg.norm(tk.center - (roi_center(ROI) + path[k])))
+        errors[reanchor] = max(errs)
+    assert errors[True] <= 0.5, errors
+    assert errors[False] > 2.0, errors  # the chain alone carries the blackout's drift

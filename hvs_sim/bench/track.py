@@ -21,14 +21,17 @@ import numpy as np
 from hvs_sim.bench.sequences import Sequence, make_sequence
 from hvs_sim.tracking import make_tracker
 
-METHODS = ("sift", "ecc", "deep_lk", "deep_lk_residual", "hybrid", "hybrid_paper", "hybrid_grey", "hybrid_cv")
+METHODS = ("sift", "ecc", "deep_lk", "deep_lk_residual", "hybrid", "hybrid_paper", "hybrid_grey", "hybrid_no_anchor",
+           "hybrid_cv")
 SCENARIOS = ("clear", "walk_by", "pause", "partial", "two_people")
 OCCLUSION_SCENARIOS = ("walk_by", "pause", "partial", "two_people")
 # the tracking issue's target set: hand-held walk_by, pause and partial (peak occlusion >= 90 % or long partial)
 TARGET_SET = (("walk_by", "pause", "partial"), "handheld")
-# hybrid_paper: the routing as published (grey OP_t, GRU only); hybrid_grey: only the colour OP_t off
+# hybrid_paper: the routing as published (grey OP_t, GRU only); hybrid_grey: only the colour OP_t off;
+# hybrid_no_anchor: only the re-anchoring on keyframes off
 METHOD_SPECS = {"hybrid_paper": ("hybrid", {"background": False, "colour_occlusion": False}),
                 "hybrid_grey": ("hybrid", {"colour_occlusion": False}),
+                "hybrid_no_anchor": ("hybrid", {"reanchor": False}),
                 "hybrid_cv": ("hybrid", {"predictor": "constant_velocity"}),
                 "hybrid_continuity": ("hybrid", {"continuity": True}),
                 "hybrid_hold": ("hybrid", {"predictor": "hold"})}

@@ -11,7 +11,8 @@ apart always share something. A similarity rather than a homography because the 
 be a narrow strip, from which a homography extrapolates badly to the hidden target.
 
 What it cannot do: when the occluder fills the whole view there is nothing to measure, and the
-hybrid tracker falls back on its motion predictor.
+hybrid tracker falls back on its motion predictor; the chain then starts again from the
+predictor's estimate, and KeyframeAnchor (below) takes that error out once the wall shows again.
 """
 
 from __future__ import annotations
@@ -37,10 +38,20 @@ class BackgroundConfig:
     min_inlier_ratio: float = 0.3  # of the corners LK could follow
     max_lk_error: float = 12.0  # mean absolute grey difference of a followed LK window
     hop: int = 5  # frames between the two images a motion is measured from (see update)
+    # re-anchoring (KeyframeAnchor): aligned frames kept, spaced in time, and their corners
+    keyframes: int = 5
+    spacing: int = 10  # frames between kept keyframes (the newest is always the latest aligned frame)
+    anchor_points: int = 150  # corners per keyframe
+    max_fb_px: float = 0.5  # forward–backward LK disagreement above which a point is dropped
 
     def __post_init__(self):
-        if not isinstance(self.hop, int) or self.hop < 1:
-            raise ConfigError(f"hop must be an int >= 1, got {self.hop!r}")
+        for name in ("hop", "keyframes", "spacing"):
+            v = getattr(self, name)
+            if not isinstance(v, int) or v < 1:
+                raise ConfigError(f"{name} must be an int >= 1, got {v!r}")
+        if not (self.ransac_px > 0 and self.max_fb_px > 0 and self.anchor_points >= 8):
+            raise ConfigError(f"need ransac_px > 0, max_fb_px > 0 and anchor_points >= 8, got "
+                              f"{self.ransac_px}, {self.max_fb_px}, {self.anchor_points}")
         if self.max_points < 8 or self.min_inliers < 4:
             raise ConfigError(f"background motion needs max_points >= 8 and min_inliers >= 4, "
                               f"got {self.max_points}, {self.min_inliers}")
@@ -102,3 +113,83 @@ class BackgroundMotion:
                 self.chain.append((grey, M))
                 return M
         return None
+
+
+@dataclass
+class _Keyframe:
+    image: np.ndarray  # grey, work pixels
+    A: np.ndarray  # reference → this frame (work pixels)
+    frame: int
+    corners: np.ndarray | None = None  # found when first needed
+
+
+class KeyframeAnchor:
+    """Similarity reference → current frame measured against frames where the target was aligned.
+
+    The chain in BackgroundMotion starts again from the motion predictor's estimate after frames
+    with nothing to measure (a person filling the view), and carries that estimate's error to the
+    end of the occlusion. Once the wall shows again, this measures the current frame against a
+    few earlier aligned frames (spaced in time, since the one just before the occlusion often
+    already has the person in front of the part of the wall that shows next), each warped first
+    by the current estimate so that LK only finds what the estimate missed: a position with no
+    error carried over."""
+
+    def __init__(self, config: BackgroundConfig = BackgroundConfig()):
+        self.config = config
+        self.keys: deque[_Keyframe] = deque(maxlen=config.keyframes)
+
+    def reset(self) -> None:
+        self.keys.clear()
+
+    def add(self, grey: np.ndarray, A: np.ndarray, frame: int) -> None:
+        """Frame number `frame`, in which `A` (reference → frame) is known. The newest keyframe is
+        replaced until it is `spacing` frames younger than the one before it, so the kept ones
+        span the recent past and the newest is always the latest."""
+        k = _Keyframe(grey, np.asarray(A, float), frame)
+        if len(self.keys) > 1 and self.keys[-1].frame - self.keys[-2].frame < self.config.spacing:
+            self.keys[-1] = k
+        else:
+            self.keys.append(k)
+
+    def _follow(self, k: _Keyframe, grey: np.ndarray, predicted: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Corners of `k` in reference coordinates and where LK finds them in `grey` (trustworthy ones only)."""
+        c = self.config
+        none = (np.empty((0, 2), np.float32), np.empty((0, 2), np.float32))
+        if k.corners is None:
+            pts = cv2.goodFeaturesToTrack(k.image, c.anchor_points, c.quality, c.min_distance, blockSize=7)
+            k.corners = none[0] if pts is None else pts[:, 0].astype(np.float32)
+        P = predicted @ np.linalg.inv(k.A)  # keyframe → grey, as predicted
+        h, w = grey.shape[:2]
+        start = cv2.transform(k.corners[None], P[:2])[0] if len(k.corners) else none[0]
+        inside = np.all((start >= 0) & (start < [w - 1, h - 1]), axis=1)
+        ref, start = k.corners[inside], start[inside]
+        if len(ref) < 4:
+            return none
+        warped = cv2.warpAffine(k.image, P[:2], (w, h), flags=cv2.INTER_LINEAR)
+        lk = dict(winSize=(c.window, c.window), maxLevel=c.levels, flags=cv2.OPTFLOW_USE_INITIAL_FLOW,
+                  criteria=(cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 0.01))
+        nxt, st, err = cv2.calcOpticalFlowPyrLK(warped, grey, start, start.copy(), **lk)
+        back, st_b, _ = cv2.calcOpticalFlowPyrLK(grey, warped, nxt, start.copy(), **lk)
+        ok = ((st[:, 0] == 1) & (st_b[:, 0] == 1) & (err[:, 0] < c.max_lk_error)
+              & (np.linalg.norm(back - start, axis=1) < c.max_fb_px) & np.all(np.isfinite(nxt), axis=1))
+        if not ok.any():
+            return none
+        return cv2.transform(ref[ok][None], np.linalg.inv(k.A)[:2])[0].astype(np.float32), nxt[ok]
+
+    def update(self, grey: np.ndarray, predicted: np.ndarray) -> np.ndarray | None:
+        """Similarity reference → `grey`, searched from `predicted`, or None when not trustworthy."""
+        c = self.config
+        pairs = [self._follow(k, grey, np.asarray(predicted, float)) for k in self.keys]
+        if not pairs:
+            return None
+        src = np.concatenate([p[0] for p in pairs])
+        dst = np.concatenate([p[1] for p in pairs])
+        if len(src) < c.min_inliers:
+            return None
+        S, mask = cv2.estimateAffinePartial2D(src, dst, method=cv2.RANSAC, ransacReprojThreshold=c.ransac_px,
+                                              maxIters=500, refineIters=10)
+        if S is None or not np.all(np.isfinite(S)):
+            return None
+        if int(mask.sum()) < max(c.min_inliers, c.min_inlier_ratio * len(src)):
+            return None
+        return np.vstack([S, [0.0, 0.0, 1.0]])

@@ -16,7 +16,9 @@ Two changes to the paper, both on by default and both measured (README, tracking
   camera's motion, where the GRU can only extrapolate it (hand-held tremor is not predictable over
   a 1.8 s occlusion). The GRU (or the configured predictor) takes over on frames where the
   surroundings give no trustworthy motion (a person filling the whole view), continuing from the
-  last background-based positions.
+  last background-based positions. After such predictor-only frames the chain would carry the
+  predictor's error to the end of the occlusion, so as soon as the wall shows again the frame is
+  measured against earlier aligned keyframes instead (`reanchor`, background.KeyframeAnchor).
 - OP_t over colour channels (`colour_occlusion`, occlusion.py): grey OP_t reported a flag half
   covered by a brown sleeve as clear, so LK aligned on the sleeve.
 
@@ -33,7 +35,7 @@ import cv2
 import numpy as np
 
 from hvs_sim.errors import ConfigError
-from hvs_sim.tracking.background import BackgroundConfig, BackgroundMotion
+from hvs_sim.tracking.background import BackgroundConfig, BackgroundMotion, KeyframeAnchor
 from hvs_sim.tracking.base import Estimate
 from hvs_sim.tracking.deep_lk import DeepLKConfig, DeepLKTracker
 from hvs_sim.tracking.occlusion import aligned_patch, occlusion_fraction
@@ -56,8 +58,11 @@ class HybridConfig:
     continuity: bool = False
     colour_occlusion: bool = True  # OP_t over colour channels (occlusion.py); False: grey, as the paper
     background: bool = True  # predict from the surroundings' homography first (module docstring)
-    background_gate_px: float = 8.0  # most a background-measured step may move the target (px/frame)
+    # most a background-measured position may differ from the last estimate (px, per frame since
+    # the last measurement); 8 px let a wrong 17 px jump through on a validation sequence (README)
+    background_gate_px: float = 4.0
     background_config: BackgroundConfig = field(default_factory=BackgroundConfig)
+    reanchor: bool = True  # after predictor-only frames, measure against aligned keyframes (KeyframeAnchor)
 
     def __post_init__(self):
         if not 0 < self.occlusion_gate <= 1:
@@ -79,6 +84,9 @@ class HybridTracker(DeepLKTracker):
         self.predictor = make_predictor(config.predictor, config.history, config.gru_weights)
         self.predict_run = 0
         self.background = BackgroundMotion(config.background_config) if config.background else None
+        self.anchor = KeyframeAnchor(config.background_config) if config.background and config.reanchor else None
+        self.frame_index = 0
+        self.drift_run = 0  # frames the motion predictor alone has moved the estimate since it was last anchored
         self.keyframe = None  # (work image, full-res warp) of the last aligned frame
 
     def _init(self, frame, roi) -> None:
@@ -87,6 +95,11 @@ class HybridTracker(DeepLKTracker):
         self.predictor.observe(np.zeros(2))
         self.predict_run = 0
         self.keyframe = (self.work_image(frame), np.eye(3))
+        self.frame_index = 0
+        self.drift_run = 0
+        if self.anchor is not None:
+            self.anchor.reset()
+            self.anchor.add(self.keyframe[0], np.eye(3), 0)
         self.template_rgb = None
         if self.hconfig.colour_occlusion and frame.ndim == 3:
             self.template_rgb, _ = aligned_patch(self.work_colour(frame), np.eye(3), self.t_origin, (self.th, self.tw))
@@ -110,7 +123,28 @@ class HybridTracker(DeepLKTracker):
             return None
         return self.S_inv @ M @ self.S @ A_key  # (keyframe → this frame, full-res) ∘ keyframe warp
 
+    def from_keyframes(self, work: np.ndarray) -> np.ndarray | None:
+        """After predictor-only frames: the target's warp measured against aligned keyframes, which
+        then anchors the scene-motion chain again; None when there is nothing to re-anchor or no
+        trustworthy measurement."""
+        if self.anchor is None or self.drift_run == 0:
+            return None
+        M = self.anchor.update(work, self.to_work(self.A))
+        if M is None:
+            return None
+        A = self.to_full(M)
+        t = matrix_to_pose(A, self.center0)[:2]
+        moved = np.linalg.norm(t - matrix_to_pose(self.A, self.center0)[:2])
+        if moved > self.hconfig.background_gate_px * (1 + self.drift_run):  # the predictor's drift bounds the jump
+            return None
+        self.predictor.observe(t)
+        self.predict_run = self.drift_run = 0
+        self.keyframe = (work, A)  # the chain goes on from here
+        self.background.reset()
+        return A
+
     def _update(self, frame) -> Estimate:
+        self.frame_index += 1
         work = self.work_image(frame)
         m, A_seed, occ, is_current = self.coarse(work)
         if self.template_rgb is not None:  # OP_t in colour at the chosen seed (occlusion.py)
@@ -126,14 +160,21 @@ class HybridTracker(DeepLKTracker):
                 self.predictor.observe(matrix_to_pose(A, self.center0)[:2])
                 self.predict_run = 0
                 self.keyframe = (work, A)
+                self.drift_run = 0
                 if self.background is not None:
                     self.background.reset()
+                if self.anchor is not None:
+                    self.anchor.add(work, self.to_work(A), self.frame_index)
                 return Estimate(A, "align", occ, m.score)
+        A_abs = self.from_keyframes(work)
+        if A_abs is not None:
+            return Estimate(A_abs, "predict", occ, m.score)
         A_bg = self.from_background(work)
         if A_bg is not None:
             t_bg = matrix_to_pose(A_bg, self.center0)[:2]
-            # a person filling most of the view can out-vote the scene in RANSAC; they move far
-            # more per frame than a hand-held or servoed camera does (gate widens per unmeasured frame)
+            # a person filling most of the view can out-vote the scene in RANSAC; a wrong consensus
+            # jumps far more than a hand-held or servoed camera moves between frames (the gate
+            # widens per unmeasured frame)
             moved = np.linalg.norm(t_bg - matrix_to_pose(self.A, self.center0)[:2])
             if moved <= self.hconfig.background_gate_px * (1 + self.predict_run):
                 self.predictor.observe(t_bg)
@@ -141,6 +182,7 @@ class HybridTracker(DeepLKTracker):
                 return Estimate(A_bg, "predict", occ, m.score)
         expected = self.predictor.predict()
         self.predict_run += 1
+        self.drift_run += 1
         if self.predict_run > self.hconfig.max_predict_frames:
             A = self.A
             mode = "lost"
