@@ -100,7 +100,7 @@ def test_estimate_is_re_anchored_when_the_view_returns_after_a_blackout():
     rng = np.random.default_rng(5)
     path = np.cumsum(rng.normal(0, 1.0, (41, 2)), axis=0)
     path -= path[0]
-    x, y, w, h = ROI
+    _, _, w, h = ROI
     errors = {}
     for reanchor in (True, False):
         tr = make_tracker("hybrid", reanchor=reanchor)

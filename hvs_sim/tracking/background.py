@@ -166,8 +166,8 @@ class KeyframeAnchor:
         if len(ref) < 4:
             return none
         warped = cv2.warpAffine(k.image, P[:2], (w, h), flags=cv2.INTER_LINEAR)
-        lk = dict(winSize=(c.window, c.window), maxLevel=c.levels, flags=cv2.OPTFLOW_USE_INITIAL_FLOW,
-                  criteria=(cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 0.01))
+        lk = {"winSize": (c.window, c.window), "maxLevel": c.levels, "flags": cv2.OPTFLOW_USE_INITIAL_FLOW,
+              "criteria": (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 0.01)}
         nxt, st, err = cv2.calcOpticalFlowPyrLK(warped, grey, start, start.copy(), **lk)
         back, st_b, _ = cv2.calcOpticalFlowPyrLK(grey, warped, nxt, start.copy(), **lk)
         ok = ((st[:, 0] == 1) & (st_b[:, 0] == 1) & (err[:, 0] < c.max_lk_error)
