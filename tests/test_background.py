@@ -6,7 +6,7 @@ import pytest
 
 from hvs_sim.errors import HvsError
 from hvs_sim.tracking import make_tracker
-from hvs_sim.tracking.background import BackgroundConfig, BackgroundMotion
+from hvs_sim.tracking.background import BackgroundConfig, BackgroundMotion, KeyframeAnchor
 from hvs_sim.tracking.frames import roi_center
 from hvs_sim.tracking.occlusion import occlusion_fraction
 from hvs_sim.tracking.warp import apply, similarity
@@ -39,6 +39,17 @@ def test_background_motion_recovers_a_similarity_past_a_moving_occluder():
     pts = np.array([[80.0, 60.0], [240.0, 180.0], [160.0, 120.0]])
     # 12 chained steps, reflected borders and the occluder's edges: within a quarter of a work pixel
     assert np.abs(apply(M, pts) - apply(true, pts)).max() < 0.25
+
+
+def test_keyframes_are_spaced_in_time_and_the_newest_is_the_latest():
+    anchor = KeyframeAnchor(BackgroundConfig(keyframes=5, spacing=10))
+    img = np.zeros((8, 8), np.uint8)
+    for k in range(41):
+        anchor.add(img, np.eye(3), k)
+    assert [key.frame for key in anchor.keys] == [0, 10, 20, 30, 40]
+    for k in range(41, 44):
+        anchor.add(img, np.eye(3), k)
+    assert [key.frame for key in anchor.keys] == [10, 20, 30, 40, 43]  # the oldest goes, the newest follows
 
 
 def test_background_motion_has_nothing_to_measure_on_a_uniform_view():
