@@ -67,28 +67,38 @@ def test_bad_background_settings_are_clear(bad):
         make_tracker("hybrid", background_gate_px=0.0)
 
 
+def random_walk(seed: int, n: int = 41) -> np.ndarray:
+    """Hand-held tremor as a random walk of the image (1 px/frame): no predictor can extrapolate it."""
+    path = np.cumsum(np.random.default_rng(seed).normal(0, 1.0, (n, 2)), axis=0)
+    return path - path[0]
+
+
+def tracking_on(img: np.ndarray, path: np.ndarray, **hybrid) -> object:
+    """A hybrid tracker that has aligned the first 10 frames of `img` moved along `path`."""
+    tr = make_tracker("hybrid", **hybrid)
+    tr.init(img, ROI)
+    for k in range(1, 11):
+        assert tr.update(shift(img, *path[k])).mode == "align"
+    return tr
+
+
+def hidden_target_error(tr, img: np.ndarray, offset: np.ndarray) -> float:
+    """Error of the predicted centre on `img` moved by `offset`, the target covered (purple)."""
+    _, _, w, h = ROI
+    f = shift(img, *offset)
+    cx, cy = roi_center(ROI) + offset
+    f[int(cy - 0.7 * h):int(cy + 0.7 * h), int(cx - 0.7 * w):int(cx + 0.7 * w)] = (128, 0, 128)
+    tk = tr.update(f)
+    assert tk.mode == "predict"
+    return float(np.linalg.norm(tk.center - (roi_center(ROI) + offset)))
+
+
 def test_hidden_target_follows_unpredictable_camera_motion_from_its_surroundings():
-    """Hand-held tremor as a random walk: no predictor can extrapolate it, the surroundings show it."""
-    img = photo()
-    rng = np.random.default_rng(3)
-    path = np.cumsum(rng.normal(0, 1.0, (41, 2)), axis=0)
-    path -= path[0]
-    x, y, w, h = ROI
+    img, path = photo(), random_walk(3)
     errors = {}
     for background in (True, False):
-        tr = make_tracker("hybrid", background=background)
-        tr.init(img, ROI)
-        for k in range(1, 11):
-            assert tr.update(shift(img, *path[k])).mode == "align"
-        errs = []
-        for k in range(11, 41):  # one second with the target fully hidden
-            f = shift(img, *path[k])
-            cx, cy = roi_center(ROI) + path[k]
-            f[int(cy - 0.7 * h):int(cy + 0.7 * h), int(cx - 0.7 * w):int(cx + 0.7 * w)] = (128, 0, 128)
-            tk = tr.update(f)
-            assert tk.mode == "predict"
-            errs.append(np.linalg.norm(tk.center - (roi_center(ROI) + path[k])))
-        errors[background] = max(errs)
+        tr = tracking_on(img, path, background=background)
+        errors[background] = max(hidden_target_error(tr, img, path[k]) for k in range(11, 41))  # one second hidden
     assert errors[True] <= 0.5, errors
     assert errors[False] > 2 * errors[True], errors  # the GRU alone cannot know a random walk
 
@@ -107,27 +117,12 @@ def test_estimate_is_re_anchored_when_the_view_returns_after_a_blackout():
     """A person filling the whole view: the predictor alone drifts; the first frames with the wall
     visible again (target still covered) are measured against aligned keyframes, not chained on
     from the drifted estimate."""
-    img = photo()
-    rng = np.random.default_rng(5)
-    path = np.cumsum(rng.normal(0, 1.0, (41, 2)), axis=0)
-    path -= path[0]
-    _, _, w, h = ROI
+    img, path = photo(), random_walk(5)
     errors = {}
     for reanchor in (True, False):
-        tr = make_tracker("hybrid", reanchor=reanchor)
-        tr.init(img, ROI)
-        for k in range(1, 11):
-            assert tr.update(shift(img, *path[k])).mode == "align"
-        for k in range(11, 26):  # nothing to see
+        tr = tracking_on(img, path, reanchor=reanchor)
+        for _ in range(11, 26):  # nothing to see
             assert tr.update(np.full_like(img, 90)).mode in ("predict", "lost")
-        errs = []
-        for k in range(26, 36):  # the wall again, the target still covered
-            f = shift(img, *path[k])
-            cx, cy = roi_center(ROI) + path[k]
-            f[int(cy - 0.7 * h):int(cy + 0.7 * h), int(cx - 0.7 * w):int(cx + 0.7 * w)] = (128, 0, 128)
-            tk = tr.update(f)
-            assert tk.mode == "predict"
-            errs.append(np.linalg.norm(tk.center - (roi_center(ROI) + path[k])))
-        errors[reanchor] = max(errs)
+        errors[reanchor] = max(hidden_target_error(tr, img, path[k]) for k in range(26, 36))  # the wall again
     assert errors[True] <= 0.5, errors
     assert errors[False] > 2.0, errors  # the chain alone carries the blackout's drift

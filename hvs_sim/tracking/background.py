@@ -59,6 +59,24 @@ class BackgroundConfig:
             raise ConfigError(f"min_inlier_ratio must be in (0, 1], got {self.min_inlier_ratio}")
 
 
+def _lk_params(c: BackgroundConfig) -> dict:
+    return {"winSize": (c.window, c.window), "maxLevel": c.levels,
+            "criteria": (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 0.01)}
+
+
+def _trusted_similarity(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig) -> np.ndarray | None:
+    """RANSAC similarity src → dst (3×3), or None when too few points agree on it."""
+    if len(src) < c.min_inliers:
+        return None
+    S, mask = cv2.estimateAffinePartial2D(src, dst, method=cv2.RANSAC, ransacReprojThreshold=c.ransac_px,
+                                          maxIters=500, refineIters=10)
+    if S is None or not np.all(np.isfinite(S)):
+        return None
+    if int(mask.sum()) < max(c.min_inliers, c.min_inlier_ratio * len(src)):
+        return None
+    return np.vstack([S, [0.0, 0.0, 1.0]])
+
+
 class BackgroundMotion:
     """Similarity keyframe → current frame of the scene in view (work pixels)."""
 
@@ -83,20 +101,9 @@ class BackgroundMotion:
         pts = cv2.goodFeaturesToTrack(src, c.max_points, c.quality, c.min_distance, blockSize=7)
         if pts is None or len(pts) < c.min_inliers:
             return None
-        nxt, status, err = cv2.calcOpticalFlowPyrLK(
-            src, grey, pts, None, winSize=(c.window, c.window), maxLevel=c.levels,
-            criteria=(cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 0.01))
+        nxt, status, err = cv2.calcOpticalFlowPyrLK(src, grey, pts, None, **_lk_params(c))
         ok = (status[:, 0] == 1) & (err[:, 0] < c.max_lk_error) & np.all(np.isfinite(nxt[:, 0]), axis=1)
-        if ok.sum() < c.min_inliers:
-            return None
-        S, mask = cv2.estimateAffinePartial2D(pts[ok], nxt[ok], method=cv2.RANSAC,
-                                              ransacReprojThreshold=c.ransac_px, maxIters=500, refineIters=10)
-        if S is None or not np.all(np.isfinite(S)):
-            return None
-        S = np.vstack([S, [0.0, 0.0, 1.0]])
-        if int(mask.sum()) < max(c.min_inliers, c.min_inlier_ratio * ok.sum()):
-            return None
-        return S
+        return _trusted_similarity(pts[ok], nxt[ok], c)
 
     def update(self, grey: np.ndarray) -> np.ndarray | None:
         """Similarity keyframe → `grey`, or None this frame (the chain then waits at the last good frame).
@@ -166,8 +173,7 @@ class KeyframeAnchor:
         if len(ref) < 4:
             return none
         warped = cv2.warpAffine(k.image, P[:2], (w, h), flags=cv2.INTER_LINEAR)
-        lk = {"winSize": (c.window, c.window), "maxLevel": c.levels, "flags": cv2.OPTFLOW_USE_INITIAL_FLOW,
-              "criteria": (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 0.01)}
+        lk = {**_lk_params(c), "flags": cv2.OPTFLOW_USE_INITIAL_FLOW}
         nxt, st, err = cv2.calcOpticalFlowPyrLK(warped, grey, start, start.copy(), **lk)
         back, st_b, _ = cv2.calcOpticalFlowPyrLK(grey, warped, nxt, start.copy(), **lk)
         ok = ((st[:, 0] == 1) & (st_b[:, 0] == 1) & (err[:, 0] < c.max_lk_error)
@@ -182,14 +188,4 @@ class KeyframeAnchor:
         pairs = [self._follow(k, grey, np.asarray(predicted, float)) for k in self.keys]
         if not pairs:
             return None
-        src = np.concatenate([p[0] for p in pairs])
-        dst = np.concatenate([p[1] for p in pairs])
-        if len(src) < c.min_inliers:
-            return None
-        S, mask = cv2.estimateAffinePartial2D(src, dst, method=cv2.RANSAC, ransacReprojThreshold=c.ransac_px,
-                                              maxIters=500, refineIters=10)
-        if S is None or not np.all(np.isfinite(S)):
-            return None
-        if int(mask.sum()) < max(c.min_inliers, c.min_inlier_ratio * len(src)):
-            return None
-        return np.vstack([S, [0.0, 0.0, 1.0]])
+        return _trusted_similarity(np.concatenate([p[0] for p in pairs]), np.concatenate([p[1] for p in pairs]), c)
