@@ -41,6 +41,31 @@ def test_background_motion_recovers_a_similarity_past_a_moving_occluder():
     assert np.abs(apply(M, pts) - apply(true, pts)).max() < 0.25
 
 
+@pytest.mark.parametrize("x0", [100, 120, 200])
+def test_background_motion_measures_a_narrow_strip_of_scene_beside_an_occluder(x0):
+    # a person filling all but a 40 work px strip through the flags, moving 2 px on its own while
+    # the scene moves by d: the few corners in the strip measure d over the whole view
+    grey = cv2.resize(cv2.cvtColor(photo(), cv2.COLOR_RGB2GRAY), None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
+    h, w = grey.shape
+    d = np.random.default_rng(x0).uniform(-1, 1, 2)
+
+    def view(shift, left):
+        img = warp(grey, similarity(*shift, 0.0, 1.0))
+        out = np.full_like(img, 70)
+        out[:, left:left + 40] = img[:, left:left + 40]
+        return out
+
+    def measure(config):
+        bg = BackgroundMotion(config)
+        bg.start(view((0.0, 0.0), x0))
+        return bg.update(view(d, x0 + 2))
+
+    assert measure(BackgroundConfig(quality=0.01, min_inliers=15)) is None  # the former defaults: too few corners
+    M = measure(BackgroundConfig())
+    pts = np.array([[0.0, 0.0], [w, 0.0], [0.0, h], [w, h], [w / 2, h / 2]])
+    assert M is not None and np.abs(apply(M, pts) - (pts + d)).max() < 0.15
+
+
 def test_keyframes_are_spaced_in_time_and_the_newest_is_the_latest():
     anchor = KeyframeAnchor(BackgroundConfig(keyframes=5, spacing=10))
     img = np.zeros((8, 8), np.uint8)

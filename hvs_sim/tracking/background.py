@@ -30,11 +30,16 @@ from hvs_sim.errors import ConfigError
 class BackgroundConfig:
     max_points: int = 200
     min_distance: int = 6  # work px between corners
-    quality: float = 0.01  # goodFeaturesToTrack quality level
+    # goodFeaturesToTrack quality level, relative to the strongest corner in view: flag corners
+    # are far stronger than the wall's texture, and at 0.01 a few columns of wall beside a person
+    # gave too few corners to measure (README, tracking benchmark)
+    quality: float = 0.001
     window: int = 15  # LK window (work px)
     levels: int = 3  # LK pyramid levels above the base
     ransac_px: float = 0.3  # inlier threshold (work px)
-    min_inliers: int = 15  # fewer: no trustworthy motion this frame
+    # fewer: no trustworthy motion this frame. Low because a person sweeping past the lens can leave
+    # a handful of wall corners for a few frames; a wrong consensus is caught by the hybrid's gate
+    min_inliers: int = 6
     min_inlier_ratio: float = 0.3  # of the corners LK could follow
     max_lk_error: float = 12.0  # mean absolute grey difference of a followed LK window
     hop: int = 5  # frames between the two images a motion is measured from (see update)
@@ -42,7 +47,7 @@ class BackgroundConfig:
     keyframes: int = 5
     spacing: int = 10  # frames between kept keyframes (the newest is always the latest aligned frame)
     anchor_points: int = 150  # corners per keyframe
-    max_fb_px: float = 0.5  # forward–backward LK disagreement above which a point is dropped
+    max_fb_px: float = 0.5  # forward–backward LK disagreement above which a point is dropped (chain and anchor)
 
     def __post_init__(self):
         for name in ("hop", "keyframes", "spacing"):
@@ -62,6 +67,20 @@ class BackgroundConfig:
 def _lk_params(c: BackgroundConfig) -> dict:
     return {"winSize": (c.window, c.window), "maxLevel": c.levels,
             "criteria": (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 0.01)}
+
+
+def _lk_checked(src: np.ndarray, dst: np.ndarray, start: np.ndarray, c: BackgroundConfig
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Pyramidal LK of the points `start` (N×2, float32) from `src` into `dst`; returns where they
+    went and which are trustworthy: followed both ways to within `max_fb_px`, with a small window
+    error. The backward check drops points whose window mixes wall and occluder, which RANSAC
+    over a few points could otherwise agree on."""
+    lk = {**_lk_params(c), "flags": cv2.OPTFLOW_USE_INITIAL_FLOW}
+    nxt, st, err = cv2.calcOpticalFlowPyrLK(src, dst, start, start.copy(), **lk)
+    back, st_b, _ = cv2.calcOpticalFlowPyrLK(dst, src, nxt, start.copy(), **lk)
+    ok = ((st[:, 0] == 1) & (st_b[:, 0] == 1) & (err[:, 0] < c.max_lk_error)
+          & (np.linalg.norm(back - start, axis=1) < c.max_fb_px) & np.all(np.isfinite(nxt), axis=1))
+    return nxt, ok
 
 
 def _trusted_similarity(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig) -> np.ndarray | None:
@@ -101,8 +120,8 @@ class BackgroundMotion:
         pts = cv2.goodFeaturesToTrack(src, c.max_points, c.quality, c.min_distance, blockSize=7)
         if pts is None or len(pts) < c.min_inliers:
             return None
-        nxt, status, err = cv2.calcOpticalFlowPyrLK(src, grey, pts, None, **_lk_params(c))
-        ok = (status[:, 0] == 1) & (err[:, 0] < c.max_lk_error) & np.all(np.isfinite(nxt[:, 0]), axis=1)
+        pts = pts[:, 0].astype(np.float32)
+        nxt, ok = _lk_checked(src, grey, pts, c)
         return _trusted_similarity(pts[ok], nxt[ok], c)
 
     def update(self, grey: np.ndarray) -> np.ndarray | None:
@@ -173,11 +192,7 @@ class KeyframeAnchor:
         if len(ref) < 4:
             return none
         warped = cv2.warpAffine(k.image, P[:2], (w, h), flags=cv2.INTER_LINEAR)
-        lk = {**_lk_params(c), "flags": cv2.OPTFLOW_USE_INITIAL_FLOW}
-        nxt, st, err = cv2.calcOpticalFlowPyrLK(warped, grey, start, start.copy(), **lk)
-        back, st_b, _ = cv2.calcOpticalFlowPyrLK(grey, warped, nxt, start.copy(), **lk)
-        ok = ((st[:, 0] == 1) & (st_b[:, 0] == 1) & (err[:, 0] < c.max_lk_error)
-              & (np.linalg.norm(back - start, axis=1) < c.max_fb_px) & np.all(np.isfinite(nxt), axis=1))
+        nxt, ok = _lk_checked(warped, grey, start, c)
         if not ok.any():
             return none
         return cv2.transform(ref[ok][None], np.linalg.inv(k.A)[:2])[0].astype(np.float32), nxt[ok]
