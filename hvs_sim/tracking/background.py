@@ -73,8 +73,8 @@ def _lk_checked(src: np.ndarray, dst: np.ndarray, start: np.ndarray, c: Backgrou
                ) -> tuple[np.ndarray, np.ndarray]:
     """Pyramidal LK of the points `start` (N×2, float32) from `src` into `dst`; returns where they
     went and which are trustworthy: followed both ways to within `max_fb_px`, with a small window
-    error. The backward check drops points whose window mixes wall and occluder, which RANSAC
-    over a few points could otherwise agree on."""
+    error. The backward check drops points LK cannot follow consistently, which RANSAC over a
+    few points could otherwise agree on; a person's edge that moves smoothly passes it (README)."""
     lk = {**_lk_params(c), "flags": cv2.OPTFLOW_USE_INITIAL_FLOW}
     nxt, st, err = cv2.calcOpticalFlowPyrLK(src, dst, start, start.copy(), **lk)
     back, st_b, _ = cv2.calcOpticalFlowPyrLK(dst, src, nxt, start.copy(), **lk)
