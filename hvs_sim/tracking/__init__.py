@@ -5,6 +5,8 @@ Imports nothing from scene/render: outside tools call this on their own image se
 
 from __future__ import annotations
 
+from dataclasses import fields
+
 from hvs_sim.errors import choice_error
 from hvs_sim.tracking.base import MODES, Track, Tracker
 
@@ -22,8 +24,6 @@ def make_tracker(name: str, **config) -> Tracker:
     if name == "hybrid":
         from hvs_sim.tracking.deep_lk import DeepLKConfig
         from hvs_sim.tracking.hybrid import HybridConfig, HybridTracker
-
-        from dataclasses import fields
 
         hybrid_keys = {f.name for f in fields(HybridConfig)} - {"deep"}
         deep = DeepLKConfig(**{"residual": True, **{k: v for k, v in config.items() if k not in hybrid_keys}})

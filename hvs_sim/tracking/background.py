@@ -184,7 +184,8 @@ class KeyframeAnchor:
         if k.corners is None:
             pts = cv2.goodFeaturesToTrack(k.image, c.anchor_points, c.quality, c.min_distance, blockSize=7)
             k.corners = none[0] if pts is None else pts[:, 0].astype(np.float32)
-        P = predicted @ np.linalg.inv(k.A)  # keyframe → grey, as predicted
+        to_ref = np.linalg.inv(k.A)  # keyframe → reference
+        P = predicted @ to_ref  # keyframe → grey, as predicted
         h, w = grey.shape[:2]
         start = cv2.transform(k.corners[None], P[:2])[0] if len(k.corners) else none[0]
         inside = np.all((start >= 0) & (start < [w - 1, h - 1]), axis=1)
@@ -195,7 +196,7 @@ class KeyframeAnchor:
         nxt, ok = _lk_checked(warped, grey, start, c)
         if not ok.any():
             return none
-        return cv2.transform(ref[ok][None], np.linalg.inv(k.A)[:2])[0].astype(np.float32), nxt[ok]
+        return cv2.transform(ref[ok][None], to_ref[:2])[0].astype(np.float32), nxt[ok]
 
     def update(self, grey: np.ndarray, predicted: np.ndarray) -> np.ndarray | None:
         """Similarity reference → `grey`, searched from `predicted`, or None when not trustworthy."""

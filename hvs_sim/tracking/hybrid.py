@@ -57,7 +57,7 @@ class HybridConfig:
     # rule (score ≥ 0.6 always) stays the default.
     continuity: bool = False
     colour_occlusion: bool = True  # OP_t over colour channels (occlusion.py); False: grey, as the paper
-    background: bool = True  # predict from the surroundings' homography first (module docstring)
+    background: bool = True  # predict from the surroundings' similarity motion first (module docstring)
     # most a background-measured position may differ from the last estimate (px, per frame since
     # the last measurement); 8 px let a wrong 17 px jump through on a validation sequence (README)
     background_gate_px: float = 4.0
@@ -180,7 +180,6 @@ class HybridTracker(DeepLKTracker):
                 self.predictor.observe(t_bg)
                 self.predict_run = 0
                 return Estimate(A_bg, "predict", occ, m.score)
-        expected = self.predictor.predict()
         self.predict_run += 1
         self.drift_run += 1
         if self.predict_run > self.hconfig.max_predict_frames:
@@ -188,7 +187,7 @@ class HybridTracker(DeepLKTracker):
             mode = "lost"
         else:
             pose = matrix_to_pose(self.A, self.center0)
-            pose[:2] = expected
+            pose[:2] = self.predictor.predict()
             A = pose_to_matrix(pose, self.center0)
             mode = "predict"
         if self.background is not None:  # restart the scene's chain here, from this estimate
