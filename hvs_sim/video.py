@@ -1,0 +1,427 @@
+"""Run a tracker on your own footage: a video file or a folder of images.
+
+  hvs-sim track PATH --roi x,y,w,h [--tracker hybrid] [--out DIR] [--rrd FILE]
+
+PATH is a video file OpenCV can read, or a folder of images (.png .jpg .jpeg .bmp .tif .tiff,
+sorted by file name; other files are ignored; every image must have the size of the first).
+
+Conventions: pixel centres sit at integer coordinates. The ROI (x, y, w, h) is given in the first
+frame and covers pixels x..x+w-1 and y..y+h-1; its centre is (x + (w - 1)/2, y + (h - 1)/2). The
+corners are the ROI's outer pixel edges (x - 0.5, y - 0.5) ... under the tracked warp, in the order
+top-left, top-right, bottom-right, bottom-left. The pose (tx, ty, theta, scale) is relative to the
+ROI at the first frame (theta in radians; positive turns clockwise on screen, as y points down).
+
+Outputs in DIR (default out/track):
+  track.csv      one row per frame: frame, cx, cy, tx, ty, theta, scale, mode, occlusion, score, ms.
+                 Row 0 is the first frame, where the tracker takes its template: its mode is "init",
+                 its pose the identity and its ms the time init() took. Later rows have the tracker's
+                 mode (align, predict or lost) and ms is the wall time of that update.
+  annotated.mp4  the frames with the tracked outline and centre, coloured by mode (init white,
+                 align green, predict amber, lost red), at the source's fps (30 for a folder).
+  FILE (--rrd)   a rerun recording: the image, the tracked outline and centre, and per-frame plots of
+                 occlusion, score, ms and mode. Open it with `rerun FILE`.
+
+Bad input (missing path, unreadable video or image, a folder without images, images of different
+sizes, a malformed or out-of-frame ROI, an unknown tracker, an output folder that cannot be written)
+stops with a message and exit status 2; outputs of a run that failed part-way are removed. Ctrl-C
+stops cleanly: the frames tracked so far are kept (CSV and video closed) and the exit status is 130.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import logging
+import statistics
+import sys
+import tempfile
+import time
+from collections import Counter
+from collections.abc import Iterator
+from contextlib import ExitStack
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import cv2
+import numpy as np
+from tqdm import tqdm
+
+from hvs_sim.cli import DEFAULT_TRACKER
+from hvs_sim.errors import ConfigError, InputError, choice_error
+from hvs_sim.tracking import TRACKER_NAMES, Track, make_tracker
+from hvs_sim.tracking.frames import MIN_ROI, check_roi
+
+log = logging.getLogger(__name__)
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+FOLDER_FPS = 30.0  # frame rate of the annotated video when the source is a folder (or a video without one)
+CSV_NAME, VIDEO_NAME = "track.csv", "annotated.mp4"
+CSV_COLUMNS = ("frame", "cx", "cy", "tx", "ty", "theta", "scale", "mode", "occlusion", "score", "ms")
+INIT_MODE = "init"
+EXIT_INTERRUPTED = 130  # the shell's convention for a process stopped by SIGINT
+MODE_COLOURS = {INIT_MODE: (255, 255, 255), "align": (0, 220, 0), "predict": (255, 170, 0), "lost": (255, 0, 0)}  # RGB
+SHIFT_BITS = 4  # sub-pixel bits for cv2 drawing, so the outline sits where the tracker put it
+DRAW_LIMIT_PX = 1e5  # clip coordinates before drawing so a wild pose cannot overflow int32
+MARKER_PX = 12
+LABEL_ORIGIN, LABEL_SCALE = (8, 20), 0.5
+RRD_JPEG_QUALITY = 85  # as in viz/rerun_log.py
+# plots/mode uses viz/rerun_log.py's codes (init counts as aligned); not imported from there because that
+# module loads the whole simulator (loop, renderer, MuJoCo), which tracking footage does not need
+MODE_PLOT_CODE = {INIT_MODE: 0, "align": 0, "predict": 1, "lost": 2}
+
+
+# ---------------------------------------------------------------- input: ROI, tracker name, frames
+
+
+def parse_roi(text: str) -> tuple[int, int, int, int]:
+    """'x,y,w,h' → four ints; the bounds are checked against the first frame later (check_roi)."""
+    try:
+        roi = tuple(int(part) for part in str(text).split(","))
+    except ValueError:
+        roi = ()
+    if len(roi) != 4:
+        raise InputError(f"--roi must be 4 integers x,y,w,h separated by commas (e.g. 120,80,64,48), got {text!r}")
+    return roi
+
+
+def check_tracker_name(name: str) -> str:
+    if name not in TRACKER_NAMES:
+        raise choice_error("tracker", name, TRACKER_NAMES)
+    return name
+
+
+@dataclass
+class FrameSource:
+    """A stream of RGB frames: the first is read up front (to check the ROI), the rest on demand."""
+
+    path: Path
+    first: np.ndarray
+    rest: Iterator[np.ndarray]
+    fps: float
+    count: int | None  # frames in all, when known (for the progress bar)
+
+    def close(self) -> None:
+        self.rest.close()  # runs the generator's finally: releases a VideoCapture
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return self.first.shape[1], self.first.shape[0]
+
+
+def open_frames(path) -> FrameSource:
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path} does not exist; give a video file OpenCV can read or a folder of images "
+                         f"({' '.join(IMAGE_SUFFIXES)})")
+    return _open_folder(path) if path.is_dir() else _open_video(path)
+
+
+def _open_folder(folder: Path) -> FrameSource:
+    files = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES)
+    if not files:
+        raise InputError(f"folder {folder} has no images; accepted: {' '.join(IMAGE_SUFFIXES)} files, "
+                         f"read in file-name order")
+    first = _read_image(files[0])
+    return FrameSource(folder, first, _folder_frames(files[1:], first.shape), FOLDER_FPS, len(files))
+
+
+def _read_image(path: Path, shape: tuple[int, ...] | None = None) -> np.ndarray:
+    bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if bgr is None:
+        raise InputError(f"cannot read image {path}; accepted: {' '.join(IMAGE_SUFFIXES)} files OpenCV can decode")
+    if shape is not None and bgr.shape != shape:
+        raise InputError(f"image {path} is {bgr.shape[1]}×{bgr.shape[0]} but the first image is "
+                         f"{shape[1]}×{shape[0]}; every image in the folder must have the same size")
+    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+
+
+def _folder_frames(files: list[Path], shape: tuple[int, ...]) -> Iterator[np.ndarray]:
+    for path in files:
+        yield _read_image(path, shape)
+
+
+def _open_video(path: Path) -> FrameSource:
+    cap = cv2.VideoCapture(str(path))
+    ok, bgr = cap.read() if cap.isOpened() else (False, None)
+    if not ok:
+        cap.release()
+        raise InputError(f"cannot read a video frame from {path}; accepted: a video file OpenCV can decode "
+                         f"(e.g. .mp4, .avi, .mov) or a folder of images ({' '.join(IMAGE_SUFFIXES)})")
+    fps = cap.get(cv2.CAP_PROP_FPS)
+    count = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
+    return FrameSource(path, cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), _video_frames(cap),
+                       fps if np.isfinite(fps) and fps > 0 else FOLDER_FPS, count if count > 0 else None)
+
+
+def _video_frames(cap: cv2.VideoCapture) -> Iterator[np.ndarray]:
+    try:
+        while True:
+            ok, bgr = cap.read()
+            if not ok:
+                return
+            yield cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+    finally:
+        cap.release()
+
+
+# ---------------------------------------------------------------- output: folder, CSV, video, rerun
+
+
+def prepare_out_dir(out) -> Path:
+    """Create the output folder and prove it is writable, before any tracking time is spent."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"--out {out} is a file; give a folder (it is created when missing)")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=out):
+            pass
+    except OSError as exc:
+        raise ConfigError(f"cannot write to the --out folder {out} ({exc.strerror or exc}); "
+                          f"give a folder you can create and write to") from None
+    return out
+
+
+def prepare_rrd(rrd) -> Path | None:
+    if rrd is None:
+        return None
+    rrd = Path(rrd)
+    if rrd.is_dir():
+        raise ConfigError(f"--rrd {rrd} is a folder; give a file name such as {rrd / 'track.rrd'}")
+    prepare_out_dir(rrd.parent)
+    return rrd
+
+
+def csv_row(index: int, track: Track) -> list:
+    tx, ty, theta, scale = track.pose
+    return [index, f"{track.center[0]:.4f}", f"{track.center[1]:.4f}", f"{tx:.4f}", f"{ty:.4f}", f"{theta:.6f}",
+            f"{scale:.6f}", track.mode, f"{track.occlusion:.4f}", f"{track.score:.4f}", f"{track.ms:.3f}"]
+
+
+def annotate(frame: np.ndarray, index: int, track: Track) -> np.ndarray:
+    """The frame as BGR with the tracked outline, centre and a 'frame mode' label, coloured by mode."""
+    bgr = cv2.cvtColor(frame, cv2.COLOR_RGB2BGR)
+    colour = MODE_COLOURS.get(track.mode, MODE_COLOURS["lost"])[::-1]
+    corners = np.clip(track.corners, -DRAW_LIMIT_PX, DRAW_LIMIT_PX)
+    cv2.polylines(bgr, [np.round(corners * 2**SHIFT_BITS).astype(np.int32)], True, colour, 1, cv2.LINE_AA,
+                  shift=SHIFT_BITS)
+    centre = np.round(np.clip(track.center, -DRAW_LIMIT_PX, DRAW_LIMIT_PX)).astype(int)
+    cv2.drawMarker(bgr, (int(centre[0]), int(centre[1])), colour, cv2.MARKER_CROSS, MARKER_PX, 1)
+    for ink, thickness in (((0, 0, 0), 3), (colour, 1)):  # a dark outline keeps the label readable on any texture
+        cv2.putText(bgr, f"{index} {track.mode}", LABEL_ORIGIN, cv2.FONT_HERSHEY_SIMPLEX, LABEL_SCALE, ink, thickness,
+                    cv2.LINE_AA)
+    return bgr
+
+
+class RerunTrackLog:
+    """Per-frame rerun logging: image, outline, centre and plots. Like viz/rerun_log.py it never raises
+    into the tracking loop: the first failure is logged and logging stops."""
+
+    def __init__(self, rrd: Path, fps: float):
+        import rerun as rr
+
+        self.rr, self.fps, self.failed = rr, fps, False
+        self.rec = rr.RecordingStream("hvs_sim_track")
+        self.rec.save(str(rrd), default_blueprint=self._blueprint())
+        self._guard(self._static)
+
+    def _blueprint(self):
+        import rerun.blueprint as rrb
+
+        return rrb.Blueprint(rrb.Horizontal(
+            rrb.Spatial2DView(name="frame", origin="video/image"),
+            rrb.Vertical(rrb.TimeSeriesView(name="occlusion and score", origin="plots",
+                                            contents=["plots/occlusion", "plots/score"]),
+                         rrb.TimeSeriesView(name="update time", origin="plots", contents=["plots/ms"]),
+                         rrb.TimeSeriesView(name="mode", origin="plots", contents=["plots/mode"])),
+            column_shares=[3, 2]), collapse_panels=True)
+
+    def _static(self) -> None:
+        rr, rec = self.rr, self.rec
+        rec.log("plots/occlusion", rr.SeriesLines(names="occlusion", colors=[120, 120, 120]), static=True)
+        rec.log("plots/score", rr.SeriesLines(names="global match score", colors=[50, 120, 220]), static=True)
+        rec.log("plots/ms", rr.SeriesLines(names="update time (ms)", colors=[220, 120, 50]), static=True)
+        rec.log("plots/mode", rr.SeriesPoints(names="mode (0 align or init, 1 predict, 2 lost)"), static=True)
+
+    def _guard(self, fn, *args) -> None:
+        if self.failed:
+            return
+        try:
+            fn(*args)
+        except Exception as exc:  # noqa: BLE001 - logging must never stop the tracking
+            self.failed = True
+            log.warning("rerun logging disabled after error: %s", exc)
+
+    def log(self, index: int, frame: np.ndarray, track: Track) -> None:
+        self._guard(self._log, index, frame, track)
+
+    def _log(self, index: int, frame: np.ndarray, track: Track) -> None:
+        rr, rec = self.rr, self.rec
+        colour = list(MODE_COLOURS.get(track.mode, MODE_COLOURS["lost"]))
+        rec.set_time("frame", sequence=index)
+        rec.set_time("video_time", duration=index / self.fps)
+        rec.log("video/image", rr.Image(frame).compress(jpeg_quality=RRD_JPEG_QUALITY))
+        rec.log("video/image/tracked", rr.LineStrips2D([np.vstack([track.corners, track.corners[:1]])], colors=[colour]))
+        rec.log("video/image/center", rr.Points2D([track.center], colors=[colour], radii=2.0))
+        rec.log("plots/occlusion", rr.Scalars(track.occlusion))
+        rec.log("plots/score", rr.Scalars(track.score))
+        rec.log("plots/ms", rr.Scalars(track.ms))
+        rec.log("plots/mode", rr.Scalars(MODE_PLOT_CODE.get(track.mode, MODE_PLOT_CODE["lost"])))
+
+    def close(self) -> None:
+        self.rec.flush()
+        self.rec.disconnect()
+
+
+class TrackOutputs:
+    """track.csv, annotated.mp4 and the optional .rrd, written one frame at a time so memory stays flat."""
+
+    def __init__(self, out: Path, size: tuple[int, int], fps: float, rrd: Path | None = None):
+        self.csv_path, self.video_path, self.rrd = out / CSV_NAME, out / VIDEO_NAME, rrd
+        self._open = ExitStack()  # closes whatever was opened, in reverse order
+        try:
+            self._start(size, fps)
+        except BaseException:
+            self.discard()
+            raise
+
+    def _start(self, size: tuple[int, int], fps: float) -> None:
+        self.video = cv2.VideoWriter(str(self.video_path), cv2.VideoWriter_fourcc(*"mp4v"), fps, size)
+        self._open.callback(self.video.release)
+        if not self.video.isOpened():
+            raise ConfigError(f"OpenCV cannot open an mp4v video writer at {self.video_path}")
+        self.rerun = RerunTrackLog(self.rrd, fps) if self.rrd else None
+        if self.rerun:
+            self._open.callback(self.rerun.close)
+        self.csv = csv.writer(self._open.enter_context(self.csv_path.open("w", newline="")))
+        self.csv.writerow(CSV_COLUMNS)
+
+    def write(self, index: int, frame: np.ndarray, track: Track) -> None:
+        self.csv.writerow(csv_row(index, track))
+        self.video.write(annotate(frame, index, track))
+        if self.rerun:
+            self.rerun.log(index, frame, track)
+
+    def close(self) -> None:
+        self._open.close()
+
+    def discard(self) -> None:
+        """Close and remove everything: a run that failed part-way must not leave a result behind."""
+        self.close()
+        for path in (self.csv_path, self.video_path, self.rrd):
+            if path is not None:
+                path.unlink(missing_ok=True)
+
+    @property
+    def paths(self) -> list[Path]:
+        return [p for p in (self.csv_path, self.video_path, self.rrd) if p is not None]
+
+
+# ---------------------------------------------------------------- the run
+
+
+@dataclass
+class TrackResult:
+    """What the run did, for the closing summary."""
+
+    tracker: str
+    outputs: list[Path]
+    modes: Counter = field(default_factory=Counter)
+    update_ms: list[float] = field(default_factory=list)  # updates only: init builds the template
+    interrupted: bool = False
+
+    @property
+    def frames(self) -> int:
+        return sum(self.modes.values())
+
+    def add(self, track: Track) -> None:
+        self.modes[track.mode] += 1
+        if track.mode != INIT_MODE:
+            self.update_ms.append(track.ms)
+
+    def summary(self) -> str:
+        modes = ", ".join(f"{m} {self.modes[m]}" for m in (INIT_MODE, "align", "predict", "lost"))
+        ms = f"{statistics.median(self.update_ms):.1f} ms" if self.update_ms else "n/a"
+        state = "interrupted after" if self.interrupted else "tracked"
+        lines = [f"{state} {self.frames} frames with {self.tracker} ({modes}); median update {ms}",
+                 "outputs: " + ", ".join(map(str, self.outputs))]
+        return "\n".join(lines)
+
+
+def track_footage(path, roi, tracker: str = DEFAULT_TRACKER, out="out/track", rrd=None,
+                  progress: bool = True) -> TrackResult:
+    """Check every input, then stream the frames through the tracker into the outputs."""
+    tracker = check_tracker_name(tracker)
+    roi = parse_roi(roi) if isinstance(roi, str) else roi
+    source = open_frames(path)
+    try:
+        roi = check_roi(roi, source.first.shape[:2])
+        out, rrd = prepare_out_dir(out), prepare_rrd(rrd)
+        method = make_tracker(tracker)
+        outputs = TrackOutputs(out, source.size, source.fps, rrd)
+        result = TrackResult(tracker, outputs.paths)
+        bar = tqdm(total=source.count, unit="frame", desc=f"track/{tracker}", disable=not progress)
+        try:
+            result.interrupted = _run(method, roi, source, outputs, result, bar)
+        finally:
+            bar.close()
+        return result
+    finally:
+        source.close()
+
+
+def _run(method, roi, source: FrameSource, outputs: TrackOutputs, result: TrackResult, bar: tqdm) -> bool:
+    """Track every frame; True when Ctrl-C stopped it (outputs kept), outputs removed on any error."""
+    try:
+        for index, (frame, track) in enumerate(_tracks(method, roi, source)):
+            outputs.write(index, frame, track)
+            result.add(track)
+            bar.update(1)
+    except KeyboardInterrupt:
+        outputs.close()
+        return True
+    except BaseException:
+        outputs.discard()
+        raise
+    outputs.close()
+    return False
+
+
+def _tracks(method, roi, source: FrameSource) -> Iterator[tuple[np.ndarray, Track]]:
+    """(frame, track) for every frame; the first is the init frame, reported with mode "init"."""
+    t0 = time.perf_counter()
+    first = method.init(source.first, roi)
+    yield source.first, replace(first, mode=INIT_MODE, ms=1e3 * (time.perf_counter() - t0))
+    for frame in source.rest:
+        yield frame, method.update(frame)
+
+
+# ---------------------------------------------------------------- CLI
+
+
+def add_track_parser(sub) -> None:
+    """Register `hvs-sim track` on the CLI's subparsers."""
+    p = sub.add_parser("track", help="run a tracker on your own video file or folder of images",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("path", help=f"a video file OpenCV can read, or a folder of images ({' '.join(IMAGE_SUFFIXES)})")
+    p.add_argument("--roi", required=True, metavar="x,y,w,h", help="the target in the first frame, integers: covers "
+                   f"pixels x..x+w-1, y..y+h-1, centre (x + (w-1)/2, y + (h-1)/2); at least {MIN_ROI}×{MIN_ROI}")
+    p.add_argument("--tracker", default=DEFAULT_TRACKER, metavar="NAME",
+                   help=f"one of: {', '.join(TRACKER_NAMES)} (default {DEFAULT_TRACKER})")
+    p.add_argument("--out", default="out/track", metavar="DIR",
+                   help="folder for track.csv and annotated.mp4, created when missing (default out/track)")
+    p.add_argument("--rrd", default=None, metavar="FILE", help="also save a rerun recording here")
+    p.set_defaults(func=cmd_track)
+
+
+def cmd_track(args) -> int:
+    try:
+        result = track_footage(args.path, args.roi, args.tracker, args.out, args.rrd)
+    except KeyboardInterrupt:  # before the first frame was tracked: nothing was written
+        print("hvs-sim: interrupted (Ctrl-C) before tracking started; nothing written", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    print(result.summary())
+    if result.interrupted:
+        print("hvs-sim: interrupted (Ctrl-C); the frames tracked so far are kept", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    return 0
