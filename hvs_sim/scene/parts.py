@@ -7,8 +7,7 @@ import numpy as np
 from dm_control import mjcf
 
 from hvs_sim.scene.flag_art import FLAG_NAMES, flag_path
-
-OCCLUDER_GROUP = 3  # geom group of people, so that renders can hide them
+from hvs_sim.scene.people import OCCLUDER_GROUP, Person  # noqa: F401  (people live in people.py)
 
 
 class FlagWall:
@@ -53,33 +52,6 @@ class FlagWall:
         """Target front-face corners in the flag geom frame: TL, TR, BR, BL as seen by the camera."""
         sx, sy, sz = cls.THICK, cls.FLAG_W / 2, cls.FLAG_H / 2
         return np.array([[-sx, sy, sz], [-sx, -sy, sz], [-sx, -sy, -sz], [-sx, sy, -sz]])
-
-
-class Person:
-    """A person-like body of capsules and boxes on a mocap body (kinematic, no collisions).
-
-    Body frame: origin on the floor between the feet, +X the walking direction, +Z up.
-    """
-
-    HALF_DEPTH = 0.12  # half extent front to back: what the camera sees while it walks past in profile
-    HALF_WIDTH = 0.28  # half extent shoulder to shoulder, arms included: what it sees when facing the camera
-
-    def __init__(self, root: mjcf.RootElement, index: int, rng: np.random.Generator):
-        shirt = np.r_[rng.uniform(0.1, 0.9, 3), 1.0]
-        trousers = np.r_[rng.uniform(0.05, 0.4, 3), 1.0]
-        skin = np.r_[np.array([0.85, 0.65, 0.5]) * rng.uniform(0.55, 1.0), 1.0]
-        hair = np.r_[rng.uniform(0.05, 0.3) * np.ones(3), 1.0]
-        self.body = root.worldbody.add("body", name=f"person{index}", mocap=True)
-        common = dict(contype=0, conaffinity=0, group=OCCLUDER_GROUP)
-        for side in (1, -1):
-            self.body.add("geom", type="capsule", fromto=[0, side * 0.09, 0.07, 0, side * 0.09, 0.9], size=[0.065], rgba=trousers, **common)
-            self.body.add("geom", type="box", pos=[0.04, side * 0.09, 0.03], size=[0.12, 0.05, 0.03], rgba=[0.1, 0.1, 0.1, 1], **common)
-            self.body.add("geom", type="capsule", fromto=[0, side * 0.235, 1.47, 0.03, side * 0.235, 0.95], size=[0.045], rgba=shirt, **common)
-            self.body.add("geom", type="sphere", pos=[0.035, side * 0.235, 0.88], size=[0.05], rgba=skin, **common)
-        self.body.add("geom", type="box", pos=[0, 0, 1.22], size=[self.HALF_DEPTH, 0.19, 0.30], rgba=shirt, **common)
-        self.body.add("geom", type="capsule", fromto=[0, 0, 1.5, 0, 0, 1.6], size=[0.05], rgba=skin, **common)
-        self.body.add("geom", type="sphere", pos=[0.01, 0, 1.7], size=[0.105], rgba=skin, **common)
-        self.body.add("geom", type="ellipsoid", pos=[-0.015, 0, 1.75], size=[0.1, 0.1, 0.07], rgba=hair, **common)
 
 
 class HandheldRig:
