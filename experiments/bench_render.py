@@ -1,6 +1,8 @@
-"""Render-time benchmark: ms per 640×480 frame (RGB, and ground truth with occlusion) per mount.
+"""Render-time benchmark: ms per 640×480 frame (RGB, and ground truth with occlusion) per mount and
+per camera preset, and a figure of one frame through each preset.
 
-    python experiments/bench_render.py --frames 100 --json experiments/results/render.json
+    python experiments/bench_render.py --frames 100 --json experiments/results/render.json \
+        --figure experiments/results/figures/camera_presets.png
 """
 
 from __future__ import annotations
@@ -13,17 +15,71 @@ from pathlib import Path
 
 import numpy as np
 
+from hvs_sim.camera_model import SENSOR_NAMES
 from hvs_sim.render.renderer import Renderer
-from hvs_sim.scene.scenarios import make_scenario
+from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 from hvs_sim.scene.world import Scene
+
+FIGURE_FRAMES = (40, 78)  # walk_by hand-held seed 0: the camera drifting, and the person's edge crossing the target
+CROP = (slice(150, 330), slice(300, 540))  # a zoom on the target and the person's edge
+
+
+def time_preset(preset: str, frames: int) -> tuple[dict, dict[int, np.ndarray]]:
+    """Median / p95 ms of the RGB frame through a camera preset over the first `frames` frames of walk_by."""
+    scene = Scene(make_scenario("walk_by", mount="handheld", camera=CameraConfig(sensor=preset)))
+    r = Renderer(scene)
+    ms, samples, kept = [], [], {}
+    for k in range(max(frames, max(FIGURE_FRAMES) + 1)):
+        t = time.perf_counter()
+        frame = r.rgb()
+        if k:  # frame 0 creates the GL context
+            ms.append(1e3 * (time.perf_counter() - t))
+        samples.append(r.blur_samples)
+        if k in FIGURE_FRAMES:
+            kept[k] = frame
+        scene.advance()
+    return {"rgb_ms_median": float(np.median(ms)), "rgb_ms_mean": float(np.mean(ms)),
+            "rgb_ms_p95": float(np.percentile(ms, 95)), "mean_blur_samples": float(np.mean(samples))}, kept
+
+
+def preset_figure(frames: dict[str, dict[int, np.ndarray]], path: Path) -> None:
+    """One row per preset: the two frames, and a zoom on the target area of the second."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(len(frames), 3, figsize=(13, 3.3 * len(frames)))  # the zoom is 4:3 like the frames
+    for row, (preset, kept) in zip(np.atleast_2d(axes), frames.items()):
+        a, b = (kept[k] for k in FIGURE_FRAMES)
+        for ax, img, title in ((row[0], a, f"{preset}: frame {FIGURE_FRAMES[0]}"),
+                               (row[1], b, f"{preset}: frame {FIGURE_FRAMES[1]}"),
+                               (row[2], b[CROP], "zoom (1:1 pixels)")):
+            ax.imshow(img, interpolation="nearest")
+            ax.set_title(title, fontsize=9)
+            ax.axis("off")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--frames", type=int, default=100)
     ap.add_argument("--json", default="experiments/results/render.json")
+    ap.add_argument("--figure", default="experiments/results/figures/camera_presets.png")
+    ap.add_argument("--presets", nargs="+", default=list(SENSOR_NAMES), choices=SENSOR_NAMES)
     args = ap.parse_args()
-    out = {"machine": platform.processor() or platform.machine(), "frames": args.frames}
+    out = {"machine": platform.processor() or platform.machine(), "frames": args.frames, "camera_presets": {}}
+    kept = {}
+    for preset in args.presets:
+        out["camera_presets"][preset], kept[preset] = time_preset(preset, args.frames)
+        p = out["camera_presets"][preset]
+        p["ratio_to_ideal"] = p["rgb_ms_mean"] / out["camera_presets"].get("ideal", p)["rgb_ms_mean"]
+        print(f"camera {preset:15s} rgb median {p['rgb_ms_median']:.1f} ms, mean {p['rgb_ms_mean']:.1f} ms "
+              f"({p['ratio_to_ideal']:.2f}x ideal), p95 {p['rgb_ms_p95']:.1f} ms, {p['mean_blur_samples']:.2f} renders/frame")
+    preset_figure(kept, Path(args.figure))
     for mount in ("handheld", "arm"):
         for shadows in (False, True):
             scene = Scene(make_scenario("walk_by", mount=mount, shadows=shadows))

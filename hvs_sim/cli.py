@@ -7,27 +7,45 @@ import json
 import sys
 from pathlib import Path
 
-from hvs_sim.errors import HvsError
+from hvs_sim.errors import ConfigError, HvsError
 
 DEFAULT_TRACKER = "hybrid"
 
 
 def _scenario_from_args(args):
+    from hvs_sim.scene.flag_art import FLAG_NAMES
     from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+    from hvs_sim.scene.textures import NATURAL_TEXTURES
 
-    overrides = {"camera": CameraConfig(width=args.width, height=args.height, fovy=args.fovy)}
+    overrides = {"camera": CameraConfig(width=args.width, height=args.height, fovy=args.fovy, sensor=args.camera)}
     if args.target:
-        overrides["target_flag"] = args.target
+        if args.target not in FLAG_NAMES + NATURAL_TEXTURES:
+            raise ConfigError(f"unknown target {args.target!r}; accepted: a flag ({', '.join(FLAG_NAMES)}) or a "
+                              f"natural texture ({', '.join(NATURAL_TEXTURES)}); or --target-image PATH")
+        overrides["target_flag" if args.target in FLAG_NAMES else "target_texture"] = args.target
+    for key in ("target_image", "target_width", "wall", "wall_images"):
+        if getattr(args, key) is not None:
+            overrides[key] = getattr(args, key)
     if getattr(args, "shadows", False):
         overrides["shadows"] = True
     return make_scenario(args.scenario, mount=args.mount, seed=args.seed, **overrides)
 
 
 def _add_scene_args(p: argparse.ArgumentParser, default_mount: str) -> None:
-    p.add_argument("--scenario", default="walk_by", help="clear, walk_by, pause, partial, two_people, moving_target")
+    from hvs_sim.camera_model import SENSOR_NAMES
+    from hvs_sim.scene.scenarios import SCENARIO_NAMES, WALL_SETS
+
+    p.add_argument("--scenario", default="walk_by", help=f"one of: {', '.join(SCENARIO_NAMES)} (hvs-sim scenes --list)")
     p.add_argument("--mount", default=default_mount, help="handheld or arm")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--target", default=None, help="target flag name (default: star_field)")
+    p.add_argument("--camera", default="ideal", choices=SENSOR_NAMES,
+                   help="camera model: exposure, blur, noise, JPEG, distortion (default: ideal = clean renders)")
+    p.add_argument("--target", default=None, help="target: a flag name or a natural texture name (default: the "
+                   "scenario's, star_field)")
+    p.add_argument("--target-image", default=None, help="any PNG/JPEG file as the target (aspect ratio kept)")
+    p.add_argument("--target-width", type=float, default=None, help="physical width of the target in metres (default 0.15)")
+    p.add_argument("--wall", default=None, choices=WALL_SETS, help="what fills the wall beside the target (default flags)")
+    p.add_argument("--wall-images", default=None, help="a folder of images to fill the wall (centre-cropped to 3:2)")
     p.add_argument("--width", type=int, default=640)
     p.add_argument("--height", type=int, default=480)
     p.add_argument("--fovy", type=float, default=45.0)
@@ -107,9 +125,9 @@ def cmd_bench(args) -> int:
 
         if args.smoke:
             cfg = TrackBenchConfig(methods=METHODS, scenarios=("walk_by",), mounts=("handheld",), seeds=(100,), frames=40,
-                                   workers=args.workers)
+                                   workers=args.workers, camera=args.camera)
         else:
-            cfg = TrackBenchConfig(workers=args.workers, **{k: tuple(v) for k, v in (("methods", args.methods),
+            cfg = TrackBenchConfig(workers=args.workers, camera=args.camera, **{k: tuple(v) for k, v in (("methods", args.methods),
                                    ("scenarios", args.scenarios), ("mounts", args.mounts), ("seeds", args.seeds)) if v})
         summary = run_track_bench(cfg, Path(args.out))
         for m, v in summary["occlusion_scenarios"].items():
@@ -124,9 +142,9 @@ def cmd_bench(args) -> int:
 
         if args.smoke:
             cfg = ServoBenchConfig(trackers=("ground_truth", "hybrid"), scenarios=("walk_by",), episodes=1, steps=30,
-                                   workers=args.workers)
+                                   workers=args.workers, camera=args.camera)
         else:
-            cfg = ServoBenchConfig(workers=args.workers, episodes=args.episodes,
+            cfg = ServoBenchConfig(workers=args.workers, episodes=args.episodes, camera=args.camera,
                                    **{k: tuple(v) for k, v in (("trackers", args.methods), ("scenarios", args.scenarios)) if v})
         summary = run_servo_bench(cfg, Path(args.out))
         for s, per in summary["results"].items():
@@ -137,6 +155,33 @@ def cmd_bench(args) -> int:
     data["provenance"] = _provenance(args.argv)
     path.write_text(json.dumps(data, indent=2))
     print(f"results: {args.out}/ (summary.json, table.md, figures)")
+    return 0
+
+
+def cmd_scenes(args) -> int:
+    """List what a scene can be built from: scenario presets, camera presets, wall sets, targets."""
+    from hvs_sim.camera_model import SENSOR_PRESETS
+    from hvs_sim.scene.flag_art import FLAG_NAMES
+    from hvs_sim.scene.scenarios import SCENARIO_NAMES, WALL_SETS, make_scenario
+    from hvs_sim.scene.textures import NATURAL_TEXTURES, TEXTURE_SETS
+
+    print("scenarios (--scenario):")
+    for name in SCENARIO_NAMES:
+        sc = make_scenario(name)
+        people = ", ".join(f"{o.kind} at {o.t_cross:g} s" for o in sc.occluders) or "nobody"
+        print(f"  {name:16s} {sc.duration:4.1f} s  target {sc.target_label:14s} wall {sc.wall:12s} people: {people}")
+    print("camera presets (--camera):")
+    for name, m in SENSOR_PRESETS.items():
+        print(f"  {name:16s} " + ("clean renders, every effect off" if m.is_ideal else
+              f"exposure {m.exposure_ms:g} ms, {m.white_e:g} e- from white, read noise {m.read_noise_e:g} e-, "
+              f"AE target {m.ae_target:g}, JPEG q{m.jpeg_quality}, light dim {m.light_dim:g} / flicker {m.light_flicker:g}"
+              + (f", distortion k1 {m.distortion[0]:g}" if m.distortion else "")))
+    print("wall sets (--wall): " + ", ".join(WALL_SETS))
+    for name, members in TEXTURE_SETS.items():
+        print(f"  {name:16s} {', '.join(members)}")
+    print("targets (--target): flags " + ", ".join(FLAG_NAMES))
+    print("                    natural textures " + ", ".join(NATURAL_TEXTURES))
+    print("                    or any image file: --target-image PATH [--target-width M]")
     return 0
 
 
@@ -176,6 +221,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=None, help="output folder (default: assets/weights, what the package ships)")
     p.set_defaults(func=cmd_train)
 
+    from hvs_sim.camera_model import REALISTIC_PRESET, SENSOR_NAMES
+
     p = sub.add_parser("bench", help="benchmarks: tracking accuracy (track) or closed-loop convergence (servo)")
     p.add_argument("what", choices=("track", "servo"))
     p.add_argument("--out", default=None, help="output folder (default: out/bench_<what>)")
@@ -186,11 +233,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mounts", nargs="+", default=None, help="track only: handheld and/or arm")
     p.add_argument("--seeds", nargs="+", type=int, default=None, help="track only")
     p.add_argument("--episodes", type=int, default=10, help="servo only: episodes per scenario and tracker")
+    p.add_argument("--camera", default=REALISTIC_PRESET, choices=SENSOR_NAMES,
+                   help=f"camera model of every sequence/episode (default {REALISTIC_PRESET}; ideal = clean renders)")
     p.set_defaults(func=cmd_bench)
+
+    p = sub.add_parser("scenes", help="list scenario presets, camera presets, wall sets and targets")
+    p.add_argument("--list", action="store_true", help="list them (the default)")
+    p.set_defaults(func=cmd_scenes)
 
     p = sub.add_parser("demo", help="the README's demo on built-in defaults (headless, offline)")
     p.add_argument("--out", default="out/demo")
     p.set_defaults(func=cmd_demo)
+
+    from hvs_sim.video import add_track_parser  # imported here: video.py imports DEFAULT_TRACKER from this module
+    add_track_parser(sub)
     return parser
 
 

@@ -15,7 +15,7 @@ import numpy as np
 from hvs_sim.control.arm import ArmLimits, camera_twist_to_world, twist_to_joint_velocities
 from hvs_sim.control.ibvs import IBVSConfig, IBVSController
 from hvs_sim.errors import ConfigError, choice_error
-from hvs_sim.render.camera import CameraPose, project, transfer_points
+from hvs_sim.render.camera import CameraPose
 from hvs_sim.render.renderer import GroundTruth, Renderer
 from hvs_sim.scene.scenarios import Scenario
 from hvs_sim.scene.world import Scene
@@ -82,7 +82,7 @@ class ServoLoop:
         self.limits = ArmLimits(qdot_max=qdot_max, q_lower=lower, q_upper=upper)
         # desired flag corners: the target seen from the reference pose (centred, at the standoff)
         ref_pos, ref_R = self.scene.reference_pose()
-        self.flag_desired = project(self.renderer.K, CameraPose(ref_R, ref_pos), self.renderer.target_corners_world())
+        self.flag_desired = self.renderer.project(CameraPose(ref_R, ref_pos), self.renderer.target_corners_world())
         self.desired_depth = float(scenario.standoff)
 
     def __iter__(self) -> Iterator[StepRecord]:
@@ -103,9 +103,9 @@ class ServoLoop:
                 flag0 = gt.corners
                 roi = roi_from_corners(flag0)
                 roi0 = roi_corners(roi)
-                desired = transfer_points(flag0, self.flag_desired, roi0)
+                desired = r.transfer(flag0, self.flag_desired, roi0)
                 controller = IBVSController(r.K, desired, self.desired_depth, cfg.ibvs)
-            gt_features = transfer_points(flag0, gt.corners, roi0)
+            gt_features = r.transfer(flag0, gt.corners, roi0)
             fault, track = None, None
             t0 = time.perf_counter()
             try:

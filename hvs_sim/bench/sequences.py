@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hvs_sim.render.camera import transfer_points
+from hvs_sim.render.renderer import Renderer
 from hvs_sim.render.sequence import render_sequence
 from hvs_sim.scene.scenarios import Scenario
 from hvs_sim.tracking.frames import roi_center, roi_from_corners
@@ -24,15 +25,18 @@ class Sequence:
     corners: np.ndarray  # (N, 4, 2) ground-truth target corners
     occlusion: np.ndarray  # (N,)
     roi: tuple[int, int, int, int]
+    K: np.ndarray | None = None  # intrinsics and lens distortion, so that the ground-truth track stays exact
+    distortion: tuple[float, ...] = ()
 
     @property
     def gt_track(self) -> np.ndarray:
         """(N, 2) true image position of the ROI centre chosen at frame 0."""
         c = roi_center(self.roi)[None]
-        return np.array([transfer_points(self.corners[0], corners, c)[0] for corners in self.corners])
+        return np.array([transfer_points(self.corners[0], corners, c, self.K, self.distortion)[0] for corners in self.corners])
 
 
 def make_sequence(scenario: Scenario, n_frames: int | None = None, progress: bool = False) -> Sequence:
     frames, gts = render_sequence(scenario, n_frames=n_frames, progress=progress)
     corners = np.array([g.corners for g in gts])
-    return Sequence(scenario, frames, corners, np.array([g.occlusion for g in gts]), roi_from_corners(corners[0]))
+    return Sequence(scenario, frames, corners, np.array([g.occlusion for g in gts]), roi_from_corners(corners[0]),
+                    K=Renderer.intrinsics_of(scenario), distortion=scenario.camera.sensor.distortion)

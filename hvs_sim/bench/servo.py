@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hvs_sim.camera_model import REALISTIC_PRESET
 from hvs_sim.loop import LoopConfig
 
 SERVO_TRACKERS = ("ground_truth", "hybrid", "deep_lk_residual", "deep_lk", "ecc")
@@ -29,6 +30,7 @@ class ServoBenchConfig:
     steps: int | None = None  # overrides scenario length + extra_steps (smoke runs)
     success_px: float = 1.0
     workers: int = 1
+    camera: str = REALISTIC_PRESET  # camera model of every episode (hvs_sim.camera_model.SENSOR_PRESETS)
 
 
 def episode_offset(seed: int) -> tuple[float, ...]:
@@ -40,11 +42,12 @@ def _episode(args):
     import torch
 
     from hvs_sim.runner import run_episode
-    from hvs_sim.scene.scenarios import make_scenario
+    from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 
-    scen_name, tracker, seed, steps, extra, keep = args
+    scen_name, tracker, seed, steps, extra, keep, camera = args
     torch.set_num_threads(1 if os.environ.get("HVS_WORKERS", "1") != "1" else 2)
-    scen = make_scenario(scen_name, mount="arm", seed=seed, start_offset=episode_offset(seed))
+    scen = make_scenario(scen_name, mount="arm", seed=seed, start_offset=episode_offset(seed),
+                         camera=CameraConfig(sensor=camera))
     n = steps if steps else scen.n_frames + extra
     summary, records = run_episode(scen, tracker, LoopConfig(steps=n, keep_frames=False), progress=False)
     summary["start_offset"] = list(scen.start_offset)
@@ -63,7 +66,7 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     seeds = [config.seed0 + i for i in range(config.episodes)]
-    jobs = [(s, t, seed, config.steps, config.extra_steps, seed == seeds[0])
+    jobs = [(s, t, seed, config.steps, config.extra_steps, seed == seeds[0], config.camera)
             for s in config.scenarios for t in config.trackers for seed in seeds]
     os.environ["HVS_WORKERS"] = str(config.workers)
     episodes, traces = {}, {}

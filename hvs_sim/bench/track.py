@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from hvs_sim.bench.sequences import Sequence, make_sequence
+from hvs_sim.camera_model import REALISTIC_PRESET
 from hvs_sim.tracking import make_tracker
 
 METHODS = ("sift", "ecc", "deep_lk", "deep_lk_residual", "hybrid", "hybrid_paper", "hybrid_grey", "hybrid_no_anchor",
@@ -88,16 +89,17 @@ class TrackBenchConfig:
     seeds: tuple[int, ...] = (100, 101, 102)
     frames: int | None = None  # None: the scenario's full length
     workers: int = 1
+    camera: str = REALISTIC_PRESET  # camera model of every sequence (hvs_sim.camera_model.SENSOR_PRESETS)
 
 
 def _job(args):
-    from hvs_sim.scene.scenarios import make_scenario
-
-    scen, mount, seed, frames, methods = args
     import torch
 
+    from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+
+    scen, mount, seed, frames, methods, camera = args
     torch.set_num_threads(1 if os.environ.get("HVS_WORKERS", "1") != "1" else 2)
-    seq = make_sequence(make_scenario(scen, mount=mount, seed=seed), n_frames=frames)
+    seq = make_sequence(make_scenario(scen, mount=mount, seed=seed, camera=CameraConfig(sensor=camera)), n_frames=frames)
     return (scen, mount, seed), {m: run_tracker(m, seq) for m in methods}
 
 
@@ -106,7 +108,7 @@ def run_track_bench(config: TrackBenchConfig, out: Path, progress: bool = True) 
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    jobs = [(s, m, seed, config.frames, config.methods) for s in config.scenarios for m in config.mounts for seed in config.seeds]
+    jobs = [(s, m, seed, config.frames, config.methods, config.camera) for s in config.scenarios for m in config.mounts for seed in config.seeds]
     results = {}
     os.environ["HVS_WORKERS"] = str(config.workers)
     if config.workers > 1:

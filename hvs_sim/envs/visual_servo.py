@@ -17,7 +17,7 @@ from gymnasium import spaces
 
 from hvs_sim.control.arm import ArmLimits, camera_twist_to_world, twist_to_joint_velocities
 from hvs_sim.errors import ConfigError, choice_error
-from hvs_sim.render.camera import CameraPose, project
+from hvs_sim.render.camera import CameraPose
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 
 ACTION_TYPES = ("twist", "joint")
@@ -28,7 +28,10 @@ class VisualServoEnv(gym.Env):
 
     def __init__(self, scenario: str = "clear", render_mode: str | None = None, action_type: str = "twist",
                  width: int = 160, height: int = 120, max_offset: float = 0.05, max_roll: float = 0.15,
-                 converge_px: float = 1.0, hold_steps: int = 5, max_linear: float = 0.1, max_angular: float = 0.5):
+                 converge_px: float = 1.0, hold_steps: int = 5, max_linear: float = 0.1, max_angular: float = 0.5,
+                 camera: str = "ideal"):
+        """camera: the camera model of the observations (hvs_sim.camera_model.SENSOR_PRESETS), e.g.
+        "phone_handheld" for exposure changes, blur, noise and JPEG as a real camera gives them."""
         if render_mode not in (None, "rgb_array"):
             raise choice_error("render_mode", render_mode, ["rgb_array", "None"])
         if action_type not in ACTION_TYPES:
@@ -36,7 +39,7 @@ class VisualServoEnv(gym.Env):
         if max_linear <= 0 or max_angular <= 0:
             raise ConfigError("max_linear and max_angular must be > 0")
         self.render_mode, self.action_type = render_mode, action_type
-        self.base = make_scenario(scenario, mount="arm", camera=CameraConfig(width=width, height=height))
+        self.base = make_scenario(scenario, mount="arm", camera=CameraConfig(width=width, height=height, sensor=camera))
         self.max_offset, self.max_roll = max_offset, max_roll
         self.converge_px, self.hold_steps = converge_px, hold_steps
         self.scale = np.array([max_linear] * 3 + [max_angular] * 3)
@@ -70,7 +73,7 @@ class VisualServoEnv(gym.Env):
         self.scene = Scene(scen)
         self.renderer = Renderer(self.scene)
         ref_pos, ref_R = self.scene.reference_pose()
-        self.desired = project(self.renderer.K, CameraPose(ref_R, ref_pos), self.renderer.target_corners_world())
+        self.desired = self.renderer.project(CameraPose(ref_R, ref_pos), self.renderer.target_corners_world())
         lower, upper, qdot_max = self.scene.joint_limits()
         self.limits = ArmLimits(qdot_max=qdot_max, q_lower=lower, q_upper=upper)
         self._held = 0

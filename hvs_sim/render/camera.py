@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from hvs_sim.camera_model import distort_points, undistort_points
 from hvs_sim.geometry import mujoco_to_opencv
 
 
@@ -28,7 +29,7 @@ class CameraPose:
     t: np.ndarray
 
     @staticmethod
-    def from_mujoco(xpos: np.ndarray, xmat: np.ndarray) -> "CameraPose":
+    def from_mujoco(xpos: np.ndarray, xmat: np.ndarray) -> CameraPose:
         return CameraPose(R=mujoco_to_opencv(xmat), t=np.asarray(xpos, float).copy())
 
     def to_camera(self, points_world: np.ndarray) -> np.ndarray:
@@ -40,10 +41,18 @@ class CameraPose:
         return T
 
 
-def transfer_points(corners_from: np.ndarray, corners_to: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """Map image points of a planar target through the homography between two views of its corners."""
+def transfer_points(corners_from: np.ndarray, corners_to: np.ndarray, pts: np.ndarray, K: np.ndarray | None = None,
+                    distortion: tuple[float, ...] = ()) -> np.ndarray:
+    """Map image points of a planar target through the homography between two views of its corners.
+
+    With a distorting lens (K and OpenCV distortion coefficients) the homography holds between the
+    undistorted views only: points are undistorted first and distorted again after, so it stays exact.
+    """
+    if distortion:
+        corners_from, corners_to, pts = (undistort_points(K, distortion, a) for a in (corners_from, corners_to, pts))
     H = cv2.getPerspectiveTransform(np.asarray(corners_from, np.float32), np.asarray(corners_to, np.float32))
-    return cv2.perspectiveTransform(np.asarray(pts, np.float64).reshape(1, -1, 2), H)[0]
+    out = cv2.perspectiveTransform(np.asarray(pts, np.float64).reshape(1, -1, 2), H)[0]
+    return distort_points(K, distortion, out) if distortion else out
 
 
 def project(K: np.ndarray, pose: CameraPose, points_world: np.ndarray) -> np.ndarray:

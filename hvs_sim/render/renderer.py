@@ -1,16 +1,26 @@
-"""RGB and segmentation renders of the eye camera, and exact per-frame ground truth."""
+"""RGB and segmentation renders of the eye camera, and exact per-frame ground truth.
+
+RGB frames go through the scenario's camera model (`hvs_sim.camera_model`): motion blur from
+sub-frame renders over the exposure, lens distortion, auto-exposure, sensor noise, JPEG. Ground
+truth comes from geometry only; with lens distortion it is projected through the same model.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import mujoco
 import numpy as np
 from dm_control.mujoco.wrapper import core as mj_core
 
-from hvs_sim.render.camera import CameraPose, intrinsics, project
-from hvs_sim.scene.parts import OCCLUDER_GROUP, FlagWall
+from hvs_sim.camera_model import SensorState, decode, distort_points, distortion_maps, light_scale
+from hvs_sim.render.camera import CameraPose, intrinsics, project, transfer_points
+from hvs_sim.scene.parts import OCCLUDER_GROUP
 from hvs_sim.scene.world import Scene
+
+PERSON_PROBE_HEIGHTS = (0.5, 1.2, 1.7)  # m above the feet: points whose image motion sets the blur sampling
+BLUR_PROBE_MARGIN = 0.25  # ... counted while within this fraction of the image size outside the frame
 
 
 @dataclass(frozen=True)
@@ -51,21 +61,96 @@ class Renderer:
         self._show_people.geomgroup[OCCLUDER_GROUP] = 1
         self._hide_people = mj_core.MjvOption()
         self._hide_people.geomgroup[OCCLUDER_GROUP] = 0
+        self.sensor = cam.sensor
+        self._state = None if self.sensor.is_ideal else SensorState(self.sensor, scene.scenario.seed, (self.height, self.width))
+        self._maps = distortion_maps(self.K, self.sensor.distortion, self.width, self.height) if self.sensor.distortion else None
+        m = scene.physics.model
+        self._light0 = (m.light_diffuse.copy(), m.light_ambient.copy(), m.vis.headlight.diffuse.copy(),
+                        m.vis.headlight.ambient.copy())
+        self._last: tuple[int, np.ndarray] | None = None  # (frame index, frame): one capture per frame
+        self.blur_samples = 1  # sub-frame renders used for the last frame (diagnostics)
 
     @staticmethod
     def intrinsics_of(scenario) -> np.ndarray:
         cam = scenario.camera
         return intrinsics(cam.width, cam.height, cam.fovy)
 
-    def rgb(self) -> np.ndarray:
-        """H×W×3 uint8 RGB frame."""
+    def _render(self) -> np.ndarray:
         return self.scene.physics.render(self.height, self.width, camera_id=self._camera_id,
-                                        scene_option=self._show_people)
+                                         scene_option=self._show_people)
+
+    def rgb(self) -> np.ndarray:
+        """H×W×3 uint8 RGB frame as the camera delivers it (the raw render for the `ideal` model)."""
+        if self._state is None:
+            return self._render()
+        scene = self.scene
+        if self._last is not None and self._last[0] == scene.frame_index:
+            return self._last[1].copy()  # auto-exposure and noise advance once per frame
+        offsets = self.sensor.exposure_offsets(self.sensor.samples_for_motion(self._exposure_motion_px()))
+        self.blur_samples = len(offsets)
+        linear = None
+        for dt in offsets:
+            with scene.rewound(float(dt)):
+                self._set_lights(scene.time - float(dt))
+                sub = decode(self._render())
+            linear = sub if linear is None else linear + sub
+        linear /= np.float32(len(offsets))
+        if self._maps is not None:
+            linear = cv2.remap(linear, *self._maps, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        frame = self._state.capture(linear, scene.frame_index, scene.time, 1.0 / scene.scenario.fps)
+        self._last = (scene.frame_index, frame)
+        return frame.copy()
+
+    def _set_lights(self, t: float) -> None:
+        """Scale the scene's lights for the camera model's flicker / dimming (no-op when it has none)."""
+        if not self.sensor.lights_change:
+            return
+        k = light_scale(self.sensor, self.scene.scenario.seed, t)
+        m = self.scene.physics.model
+        m.light_diffuse[:] = self._light0[0] * k
+        m.light_ambient[:] = self._light0[1] * k
+        m.vis.headlight.diffuse[:] = self._light0[2] * k
+        m.vis.headlight.ambient[:] = self._light0[3] * k
+
+    def _exposure_motion_px(self) -> float:
+        """Largest image motion during the exposure of the target centre and the people (for blur sampling)."""
+        if self.sensor.exposure_ms <= 0 or self.sensor.blur_max_samples == 1:
+            return 0.0
+        now = self._moving_points_px()
+        with self.scene.rewound(self.sensor.exposure_ms * 1e-3):
+            then = self._moving_points_px()
+        d = np.linalg.norm(now - then, axis=1)
+        margin = BLUR_PROBE_MARGIN * np.array([self.width, self.height])
+        inside = np.all((now > -margin) & (now < [self.width, self.height] + margin), axis=1)
+        d = d[inside & np.isfinite(d)]
+        return float(d.max()) if d.size else 0.0
+
+    def _moving_points_px(self) -> np.ndarray:
+        pts = [self.target_center_world()]
+        for pos, R in self.scene.people_poses():
+            pts += [pos + R @ np.array([0.0, 0.0, z]) for z in PERSON_PROBE_HEIGHTS]
+        return project(self.K, self.camera_pose(), np.array(pts))
+
+    def transfer(self, corners_from: np.ndarray, corners_to: np.ndarray, pts: np.ndarray) -> np.ndarray:
+        """`transfer_points` through this camera's lens (exact with distortion too)."""
+        return transfer_points(corners_from, corners_to, pts, self.K, self.sensor.distortion)
+
+    def project(self, pose: CameraPose, points_world: np.ndarray) -> np.ndarray:
+        """Where world points appear in this camera's frames: pinhole, then the lens distortion if any."""
+        uv = project(self.K, pose, points_world)
+        return distort_points(self.K, self.sensor.distortion, uv) if self.sensor.distortion else uv
 
     def _target_mask(self, hide_people: bool) -> np.ndarray:
         seg = self.scene.physics.render(self.height, self.width, camera_id=self._camera_id, segmentation=True,
                                         scene_option=self._hide_people if hide_people else self._show_people)
         return (seg[..., 0] == self._target_id) & (seg[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM))
+
+    def target_mask_distorted(self) -> np.ndarray:
+        """The target's unhidden pixels in the camera's (distorted) image; equals `target_mask` without distortion."""
+        mask = self.target_mask()
+        if self._maps is None:
+            return mask
+        return cv2.remap(mask.astype(np.uint8), *self._maps, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT) > 0
 
     def target_mask(self) -> np.ndarray:
         """Boolean mask of the target's pixels that are not hidden by anything."""
@@ -78,18 +163,18 @@ class Renderer:
     def target_corners_world(self) -> np.ndarray:
         g = self.scene.physics.bind(self.scene.wall.target)
         R = g.xmat.reshape(3, 3)
-        return g.xpos + FlagWall.corner_offsets() @ R.T
+        return g.xpos + self.scene.wall.corner_offsets() @ R.T
 
     def target_center_world(self) -> np.ndarray:
         g = self.scene.physics.bind(self.scene.wall.target)
-        return g.xpos + g.xmat.reshape(3, 3) @ FlagWall.corner_offsets()[:, :].mean(axis=0)
+        return g.xpos + g.xmat.reshape(3, 3) @ self.scene.wall.corner_offsets()[:, :].mean(axis=0)
 
     def ground_truth(self, occlusion: bool = True) -> GroundTruth:
         """Projected target geometry and (if asked) the occlusion from two segmentation renders."""
         pose = self.camera_pose()
-        corners = project(self.K, pose, self.target_corners_world())
+        corners = self.project(pose, self.target_corners_world())
         centre_w = self.target_center_world()
-        center = project(self.K, pose, centre_w)[0]
+        center = self.project(pose, centre_w)[0]
         visible = full = 0
         occ = float("nan")
         if occlusion:

@@ -2,18 +2,22 @@
 
 from __future__ import annotations
 
+import cv2
 import mujoco
 import numpy as np
 from dm_control import mjcf
 
+from hvs_sim.errors import ConfigError
 from hvs_sim.scene.flag_art import FLAG_NAMES, flag_path
 from hvs_sim.scene.people import OCCLUDER_GROUP, Person  # noqa: F401  (people live in people.py)
 
 
 class FlagWall:
-    """A board with a 3×5 grid of textured flags on a mocap body; the target flag sits in the centre.
+    """A board with a 3×5 grid of pictures on a mocap body; the target sits in the centre.
 
-    The body origin is the centre of the target flag's front face; the front faces the −X side.
+    Each slot holds a flag (by name, from assets/flags) or an RGB image (posters, photos, natural
+    textures). The target keeps its image's aspect ratio at `target_width` metres; the other slots
+    are FLAG_W × FLAG_H. The body origin is the centre of the target's front face; the front faces −X.
     """
 
     ROWS, COLS = 3, 5
@@ -21,37 +25,60 @@ class FlagWall:
     PITCH_Y, PITCH_Z = 0.19, 0.135
     THICK = 0.002
 
-    def __init__(self, root: mjcf.RootElement, target_flag: str):
+    def __init__(self, root: mjcf.RootElement, target: str | np.ndarray, others: list | None = None,
+                 target_width: float = FLAG_W):
+        """target: flag name or RGB image; others: the 14 other slots (flag names or images), row by row;
+        None = the other flags in their usual order."""
         self.body = root.worldbody.add("body", name="flag_wall", mocap=True)
-        order = [n for n in FLAG_NAMES if n != target_flag]
+        n_slots = self.ROWS * self.COLS
         centre = (self.ROWS // 2) * self.COLS + self.COLS // 2
-        order.insert(centre, target_flag)
-        w, h = self.COLS * self.PITCH_Y + 0.06, self.ROWS * self.PITCH_Z + 0.06
+        if others is None:
+            others = [n for n in FLAG_NAMES if n != target]
+        order = list(others[: n_slots - 1])
+        order.insert(centre, target)
+        aspect = self.FLAG_H / self.FLAG_W if isinstance(target, str) else target.shape[0] / target.shape[1]
+        self.target_size = (float(target_width), float(target_width) * aspect)  # (width, height) m
+        # a target larger than a flag spreads the grid by the difference, so neighbours keep their gaps
+        pitch_y = self.PITCH_Y + max(0.0, self.target_size[0] - self.FLAG_W)
+        pitch_z = self.PITCH_Z + max(0.0, self.target_size[1] - self.FLAG_H)
+        w, h = self.COLS * pitch_y + 0.06, self.ROWS * pitch_z + 0.06
         board_tex = root.asset.add("texture", name="board", type="2d", builtin="flat", width=256, height=256,
                                    rgb1=[0.82, 0.80, 0.74], rgb2=[0.6, 0.58, 0.55], mark="random", random=0.04)
         board_mat = root.asset.add("material", name="board", texture=board_tex, texrepeat=[4, 4])
-        y0 = (self.COLS // 2) * self.PITCH_Y
-        z0 = (self.ROWS // 2) * self.PITCH_Z
+        y0 = (self.COLS // 2) * pitch_y
+        z0 = (self.ROWS // 2) * pitch_z
         self.body.add("geom", name="board", type="box", size=[0.01, w / 2, h / 2],
-                      pos=[2 * self.THICK + 0.01, y0 - (self.COLS - 1) * self.PITCH_Y / 2, z0 - (self.ROWS - 1) * self.PITCH_Z / 2],
+                      pos=[2 * self.THICK + 0.01, y0 - (self.COLS - 1) * pitch_y / 2, z0 - (self.ROWS - 1) * pitch_z / 2],
                       material=board_mat, contype=0, conaffinity=0)
         self.flags = {}
-        for k, name in enumerate(order[: self.ROWS * self.COLS]):
+        for k, item in enumerate(order):
             r, c = divmod(k, self.COLS)
-            tex = root.asset.add("texture", name=f"flag_{name}", type="2d", file=str(flag_path(name)), hflip=True)
+            name = item if isinstance(item, str) else f"picture{k}"
+            source = str(flag_path(item)) if isinstance(item, str) else mjcf.Asset(_png_bytes(item), ".png")
+            tex = root.asset.add("texture", name=f"flag_{name}", type="2d", file=source, hflip=True)
             mat = root.asset.add("material", name=f"flag_{name}", texture=tex, specular=0.05, shininess=0.05)
+            half_w, half_h = (self.target_size[0] / 2, self.target_size[1] / 2) if k == centre else \
+                (self.FLAG_W / 2, self.FLAG_H / 2)
             # viewer looks along +X: image right is world −Y, so column c sits at y = y0 − c·pitch
             self.flags[name] = self.body.add(
-                "geom", name=f"flag_{name}", type="box", size=[self.THICK, self.FLAG_W / 2, self.FLAG_H / 2],
-                pos=[self.THICK, y0 - c * self.PITCH_Y, z0 - r * self.PITCH_Z], material=mat,
+                "geom", name=f"flag_{name}", type="box", size=[self.THICK, half_w, half_h],
+                pos=[self.THICK, y0 - c * pitch_y, z0 - r * pitch_z], material=mat,
                 contype=0, conaffinity=0)
-        self.target = self.flags[target_flag]
+            if k == centre:
+                self.target = self.flags[name]
 
-    @classmethod
-    def corner_offsets(cls) -> np.ndarray:
-        """Target front-face corners in the flag geom frame: TL, TR, BR, BL as seen by the camera."""
-        sx, sy, sz = cls.THICK, cls.FLAG_W / 2, cls.FLAG_H / 2
+    def corner_offsets(self) -> np.ndarray:
+        """Target front-face corners in the target geom's frame: TL, TR, BR, BL as seen by the camera."""
+        sx, sy, sz = self.THICK, self.target_size[0] / 2, self.target_size[1] / 2
         return np.array([[-sx, sy, sz], [-sx, -sy, sz], [-sx, -sy, -sz], [-sx, sy, -sz]])
+
+
+def _png_bytes(rgb: np.ndarray) -> bytes:
+    """An RGB image as PNG bytes, for MuJoCo's in-memory assets (nothing is written to disk)."""
+    ok, buf = cv2.imencode(".png", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
+    if not ok:  # pragma: no cover - a uint8 RGB image always encodes
+        raise ConfigError("could not encode a wall picture as PNG")
+    return buf.tobytes()
 
 
 class HandheldRig:

@@ -10,23 +10,32 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
-from hvs_sim.errors import ConfigError, choice_error
+from hvs_sim.camera_model import SensorModel, sensor_preset
+from hvs_sim.errors import ConfigError, InputError, choice_error
 from hvs_sim.scene.flag_art import FLAG_NAMES
+from hvs_sim.scene.textures import NATURAL_TEXTURES, TEXTURE_SETS
 
 MOUNTS = ("handheld", "arm")
+# what fills the wall beside the target: the 15 flags, flags and natural textures alternating, or a texture set
+WALL_SETS: tuple[str, ...] = ("flags", "mixed") + tuple(TEXTURE_SETS)
+MIN_TARGET_WIDTH, MAX_TARGET_WIDTH = 0.05, 0.6  # m: from a beer mat to a poster the arm's camera still sees whole
 OCCLUDER_KINDS = ("walk", "pause", "hover")
+PEOPLE_STYLES = ("textured", "plain")  # how people look: clothed and textured, or the original flat figures
 
 
 @dataclass(frozen=True)
 class CameraConfig:
-    """Wrist / hand-held camera: image size in pixels and vertical field of view in degrees."""
+    """Wrist / hand-held camera: image size in pixels, vertical field of view in degrees, and what its
+    sensor and lens do to the light (`hvs_sim.camera_model`; a preset name or a `SensorModel`)."""
 
     width: int = 640
     height: int = 480
     fovy: float = 45.0
+    sensor: SensorModel | str = field(default_factory=SensorModel)
 
     def __post_init__(self):
         for name in ("width", "height"):
@@ -35,6 +44,7 @@ class CameraConfig:
                 raise ConfigError(f"camera {name} must be an int in [64, 4096] pixels, got {v!r}")
         if not isinstance(self.fovy, (int, float)) or not 10.0 <= float(self.fovy) <= 120.0:
             raise ConfigError(f"camera fovy must be a number of degrees in [10, 120], got {self.fovy!r}")
+        object.__setattr__(self, "sensor", sensor_preset(self.sensor))
 
 
 @dataclass(frozen=True)
@@ -77,7 +87,15 @@ class OccluderPlan:
 
 @dataclass(frozen=True)
 class Scenario:
-    """A named, seeded scene set-up. Vary with `dataclasses.replace`."""
+    """A named, seeded scene set-up. Vary with `dataclasses.replace`.
+
+    The target is a flag (`target_flag`), a built-in natural texture (`target_texture`, see
+    `hvs_sim.scene.textures`) or the user's image file (`target_image`), `target_width` metres wide
+    with its image's aspect ratio. The other 14 slots of the wall hold the set named by `wall`
+    (WALL_SETS) or the images of the folder `wall_images`.
+    `people` (PEOPLE_STYLES) is how the occluders look: "textured" clothed bodies, each outfit drawn
+    from the seed, or the original "plain" flat-coloured figures.
+    """
 
     name: str
     mount: str = "handheld"
@@ -92,10 +110,18 @@ class Scenario:
     wall_motion: tuple[float, float, float] = (0.0, 0.0, 0.0)
     shake: float = 1.0
     shadows: bool = False
+    target_texture: str | None = None
+    target_image: str | None = None
+    target_width: float = 0.15
+    wall: str = "flags"
+    wall_images: str | None = None
+    people: str = "textured"
 
     def __post_init__(self):
         if self.mount not in MOUNTS:
             raise choice_error("mount", self.mount, MOUNTS)
+        if self.people not in PEOPLE_STYLES:
+            raise choice_error("people style", self.people, PEOPLE_STYLES)
         if self.target_flag not in FLAG_NAMES:
             raise choice_error("flag", self.target_flag, FLAG_NAMES)
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
@@ -112,6 +138,28 @@ class Scenario:
             raise ConfigError("start_offset must stay within 0.15 m and 30 degrees of the reference pose")
         if self.shake < 0:
             raise ConfigError(f"shake must be >= 0, got {self.shake}")
+        self._check_wall()
+
+    def _check_wall(self) -> None:
+        if self.target_texture is not None and self.target_image is not None:
+            raise ConfigError("give target_texture or target_image, not both")
+        if self.target_texture is not None and self.target_texture not in NATURAL_TEXTURES:
+            raise choice_error("target texture", self.target_texture, NATURAL_TEXTURES)
+        if self.target_image is not None and not Path(self.target_image).is_file():
+            raise InputError(f"target image {self.target_image!r} does not exist or is not a file")
+        if not isinstance(self.target_width, (int, float)) or not MIN_TARGET_WIDTH <= self.target_width <= MAX_TARGET_WIDTH:
+            raise ConfigError(f"target_width must be in [{MIN_TARGET_WIDTH}, {MAX_TARGET_WIDTH}] m, got {self.target_width!r}")
+        if self.wall not in WALL_SETS:
+            raise choice_error("wall set", self.wall, WALL_SETS)
+        if self.wall_images is not None and not Path(self.wall_images).is_dir():
+            raise InputError(f"wall image folder {self.wall_images!r} does not exist or is not a folder")
+
+    @property
+    def target_label(self) -> str:
+        """What the target is, for tables and logs."""
+        if self.target_image:
+            return Path(self.target_image).name
+        return self.target_texture or self.target_flag
 
     @property
     def n_frames(self) -> int:
@@ -131,6 +179,11 @@ _PRESETS: dict[str, dict] = {
         duration=6.5,
     ),
     "moving_target": dict(occluders=(OccluderPlan("walk", t_cross=4.0, speed=0.45),), wall_motion=(0.03, 0.015, 0.2)),
+    # natural imagery: a printed poster among natural textures; a photo among prints, with a pause in front
+    "poster_walk_by": dict(occluders=(OccluderPlan("walk", t_cross=3.0, speed=0.45),), target_texture="poster",
+                           wall="natural"),
+    "photo_pause": dict(occluders=(OccluderPlan("pause", t_cross=3.0, speed=0.45, pause_s=1.5),), duration=7.0,
+                        target_texture="photo_flower", wall="printed"),
 }
 SCENARIO_NAMES: tuple[str, ...] = tuple(_PRESETS)
 

@@ -2,23 +2,28 @@
 
 from __future__ import annotations
 
+import functools
 import math
+from contextlib import contextmanager
 
 import numpy as np
-
 from dm_control import mjcf
 from dm_control.utils import inverse_kinematics
 
 from hvs_sim.errors import ConfigError
 from hvs_sim.geometry import mat_to_quat, offset_pose, opencv_to_mujoco
+from hvs_sim.scene.flag_art import FLAG_NAMES
+from hvs_sim.scene.images import crop_to_aspect, list_images, load_image
 from hvs_sim.scene.parts import ArmRig, FlagWall, HandheldRig, Person
 from hvs_sim.scene.scenarios import Scenario, ShakeModel, occluder_lateral
+from hvs_sim.scene.textures import TEXTURE_SETS, natural_texture
 
 # Reference camera: 1.3 m high, looking along world +X, upright. Its OpenCV rotation has
 # x_cam = −Y_world (right), y_cam = −Z_world (down), z_cam = +X_world (forward).
 REFERENCE_POSITION = np.array([0.40, 0.0, 1.30])
 REFERENCE_R_CV = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 PHYSICS_SUBSTEPS = 20  # physics steps per frame (timestep = 1 / (fps · substeps))
+WALL_SEED_STRIDE = 1000  # texture seed of wall slot k: stride · scenario seed + k
 
 
 class Scene:
@@ -56,8 +61,8 @@ class Scene:
                            pos=[REFERENCE_POSITION[0] + scenario.standoff + 0.25, 0, 1.5], material=room_mat,
                            contype=0, conaffinity=0)
 
-        self.wall = FlagWall(root, scenario.target_flag)
-        self.people = [Person(root, i, rng) for i in range(len(scenario.occluders))]
+        self.wall = FlagWall(root, *wall_pictures(scenario), target_width=scenario.target_width)
+        self.people = [Person(root, i, rng, style=scenario.people) for i in range(len(scenario.occluders))]
         if scenario.mount == "arm":
             self.rig = ArmRig(root, cam.fovy)
         else:
@@ -122,7 +127,7 @@ class Scene:
             horiz = np.array([line[0], line[1], 0.0])
             horiz /= np.linalg.norm(horiz)
             lateral_axis = np.array([-horiz[1], horiz[0], 0.0])
-            target_half = FlagWall.FLAG_W / 2 * plan.depth
+            target_half = self.wall.target_size[0] / 2 * plan.depth
             # walkers pass in profile; a hovering person has stopped and turned to face the camera
             facing = plan.kind == "hover" and t >= plan.t_cross
             lat = occluder_lateral(plan, t, Person.HALF_WIDTH if plan.kind == "hover" else Person.HALF_DEPTH, target_half)
@@ -135,7 +140,10 @@ class Scene:
             b.mocap_quat = mat_to_quat(R)
 
     def _apply_time(self) -> None:
-        t = self.time
+        self._apply_kinematics(self.time)
+
+    def _apply_kinematics(self, t: float) -> None:
+        """Put everything that moves as a function of time (wall, hand-held camera, people) where it is at t."""
         self.physics.data.time = t
         self.physics.bind(self.wall.body).mocap_pos = self.wall_position(t)
         if not self.is_arm:
@@ -147,6 +155,33 @@ class Scene:
         if self.people:
             self._place_people(t)
             self.physics.forward()
+
+    @contextmanager
+    def rewound(self, dt: float):
+        """The world as it was dt seconds (at most one frame) before the current frame; restored on exit.
+
+        For a camera's exposure, which ends at the frame time: the kinematic parts follow their time
+        functions, the arm's joints are interpolated between the previous and the current frame (a
+        joint's velocity barely changes within 1/fps). Physics state is restored exactly, so stepping
+        afterwards is unchanged.
+        """
+        if dt <= 0:
+            yield
+            return
+        joints = q_now = warm = None
+        if self.is_arm:
+            joints = self.physics.bind(self.rig.joints)
+            q_now, warm = joints.qpos.copy(), self.physics.data.qacc_warmstart.copy()
+            a = min(1.0, dt * self.scenario.fps)
+            joints.qpos = q_now + a * (self._q_prev - q_now)
+        self._apply_kinematics(self.time - dt)
+        try:
+            yield
+        finally:
+            if joints is not None:
+                joints.qpos = q_now
+                self.physics.data.qacc_warmstart[:] = warm
+            self._apply_kinematics(self.time)
 
     # ------------------------------------------------------------------ arm
 
@@ -220,17 +255,62 @@ class Scene:
             self.physics.reset()
             self.physics.bind(self.rig.joints).qpos = q_start
             self.physics.bind(self.rig.actuators).ctrl = 0.0
+            self._q_prev = q_start.copy()
         self._apply_time()
 
     def advance(self, joint_velocity: np.ndarray | None = None) -> None:
         """Move one frame (1/fps s): joint velocity commands for the arm, kinematics for the rest."""
         if self.is_arm:
+            self._q_prev = self.joint_positions
             cmd = np.zeros(len(self.rig.actuators)) if joint_velocity is None else np.asarray(joint_velocity, float)
             self.physics.bind(self.rig.actuators).ctrl = cmd + self._friction_feedforward(cmd)
             for _ in range(PHYSICS_SUBSTEPS):
                 self.physics.step()
         self.frame_index += 1
         self._apply_time()
+
+
+SLOT_TEXELS = (450, 300)  # (width, height) of a natural-texture picture beside the target (3:2 like a flag)
+TARGET_TEXELS = 600  # width of a natural-texture target
+
+
+@functools.lru_cache(maxsize=256)
+def _texture(name: str, width: int, height: int, seed: int) -> np.ndarray:
+    img = natural_texture(name, width=width, height=height, seed=seed)
+    img.setflags(write=False)
+    return img
+
+
+def wall_pictures(scenario: Scenario) -> tuple[str | np.ndarray, list | None]:
+    """(target, the 14 other slots) for FlagWall: flag names or RGB images, a pure function of the scenario.
+
+    The wall's textures change with the seed (a new set of posters per benchmark seed); a flag wall
+    is the same for every seed, as before.
+    """
+    if scenario.target_image:
+        target = load_image(scenario.target_image, "target image")
+    elif scenario.target_texture:
+        target = _texture(scenario.target_texture, TARGET_TEXELS, TARGET_TEXELS * 2 // 3, scenario.seed)
+    else:
+        target = scenario.target_flag
+    n_others = FlagWall.ROWS * FlagWall.COLS - 1
+    flags = [n for n in FLAG_NAMES if n != scenario.target_flag][:n_others]
+    aspect = FlagWall.FLAG_H / FlagWall.FLAG_W
+    if scenario.wall_images:
+        files = list_images(scenario.wall_images)
+        others = [crop_to_aspect(load_image(files[k % len(files)], "wall image"), aspect) for k in range(n_others)]
+        return target, others
+    if scenario.wall == "flags":
+        return target, (None if isinstance(target, str) else flags)
+    names = TEXTURE_SETS["natural" if scenario.wall == "mixed" else scenario.wall]
+    others = []
+    for k in range(n_others):
+        if scenario.wall == "mixed" and k % 2 == 0:
+            others.append(flags[k])
+            continue
+        name = names[(k + scenario.seed) % len(names)]
+        others.append(_texture(name, *SLOT_TEXELS, WALL_SEED_STRIDE * scenario.seed + k))
+    return target, others
 
 
 def _solve_ik(root, physics, rig: ArmRig, position, R_cv, q0) -> np.ndarray:
