@@ -11,15 +11,24 @@ the benchmarks read. The frame pipeline (applied by `hvs_sim.render.Renderer` to
 
 Units: exposure in ms, noise in electrons (e⁻), light and gain changes as fractions. `white_e` is
 the charge a white surface (linear radiance 1) leaves in a pixel over one exposure at the modelled
-light level: indoors that is a small part of the full well, so gain and noise are high. `ideal` has every effect off and leaves the
+light level: indoors that is a small part of the full well, so shot noise is large. Auto-exposure
+here changes the gain only, never the exposure time (which fixes the motion blur).
+
+Not modelled (say so before trusting a result that depends on them): rolling shutter, the ISP's
+denoising and sharpening (a phone's video is cleaner than `phone_handheld`'s raw noise), demosaicing
+(noise here is independent per channel), vignetting, and the frame-to-frame prediction of a video
+codec (per-frame JPEG stands in for its artefacts). `ideal` has every effect off and leaves the
 render untouched (bit for bit). This module is pure numpy/OpenCV and knows nothing of MuJoCo, so
 the scene config can hold a `SensorModel` and the renderer can apply it.
 """
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
+from types import MappingProxyType
 
 import cv2
 import numpy as np
@@ -28,11 +37,16 @@ from hvs_sim.errors import ConfigError, choice_error
 
 NOISE_STREAM = 23  # seed stream of the sensor noise (rng = default_rng([seed, NOISE_STREAM, frame]))
 DRIFT_STREAM = 29  # seed stream of the phases of auto-exposure drift and light changes
-NOISE_BANK_FRAMES = 3  # normals drawn once, read at a random offset per frame: 1 ms instead of 10 ms
+NOISE_BANK_FRAMES = 3  # normals drawn once, read at two random offsets per frame: 2 ms instead of 10 ms
+SQRT_HALF = math.sqrt(0.5)
 AE_METER_SIZE = (80, 60)  # auto-exposure meters a thumbnail of the frame
 AE_METER_SIGMA = 0.35  # centre weighting of the meter, as a fraction of the image diagonal
 LINEAR_LEVELS = 4096  # 12-bit linear quantisation before the sRGB curve (a real ADC's depth)
 BLUR_STEP_PX = 1.5  # at most this much image motion between two sub-frame renders of one exposure
+MAX_EXPOSURE_MS = 200.0  # a scenario also caps it at one frame interval (1000 / fps)
+MAX_LENS_RADIUS = 1.0  # distortion must not fold over out to this normalised radius (a 90° diagonal field of view)
+LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)  # Rec. 709 luminance weights of linear RGB
+MIN_METERED = 1e-4  # a black frame still gives a finite auto-exposure gain (then clipped to the range)
 
 
 def srgb_to_linear(v: np.ndarray) -> np.ndarray:
@@ -78,8 +92,8 @@ class SensorModel:
     ae_time_s: auto-exposure time constant (first-order lag in log gain, one frame of delay).
     ae_gain_range: (min, max) gain the auto-exposure may use.
     ae_drift: relative amplitude of slow drift of the auto-exposure target, at ae_drift_hz.
-    light_flicker / light_flicker_hz: relative amplitude and frequency of a flickering light (the
-        beat of mains lighting with the frame rate shows as a few Hz).
+    light_flicker / light_flicker_hz: relative amplitude and frequency of a flickering light (a
+        failing fluorescent tube, a lamp on a dimmer); sampled at each sub-frame render.
     light_dim / light_dim_period_s: the scene's lights dim by up to this fraction and back, over
         this period (a cloud passing a window, a dimmer).
     jpeg_quality: 1..100 per-frame JPEG (the artefacts of an intra-coded video stream); 0 = off.
@@ -104,13 +118,21 @@ class SensorModel:
     distortion: tuple[float, ...] = ()
 
     def __post_init__(self):
-        _check_range("exposure_ms", self.exposure_ms, 0.0, 200.0)
+        for name in ("ae_gain_range", "distortion"):  # tuples of floats, so the model stays hashable and comparable
+            v = getattr(self, name)
+            try:
+                object.__setattr__(self, name, tuple(float(x) for x in v))
+            except (TypeError, ValueError):
+                raise ConfigError(f"sensor {name} must be a tuple of numbers, got {v!r}") from None
+        _check_range("exposure_ms", self.exposure_ms, 0.0, MAX_EXPOSURE_MS)
         if isinstance(self.blur_max_samples, bool) or not isinstance(self.blur_max_samples, (int, np.integer)) \
                 or not 1 <= self.blur_max_samples <= 32:
             raise ConfigError(f"sensor blur_max_samples must be an int in [1, 32], got {self.blur_max_samples!r}")
         if not (isinstance(self.white_e, (int, float)) and (self.white_e == math.inf or 10 <= self.white_e <= 1e6)):
             raise ConfigError(f"sensor white_e must be in [10, 1e6] electrons or inf (no shot noise), got {self.white_e!r}")
         _check_range("read_noise_e", self.read_noise_e, 0.0, 100.0)
+        if self.read_noise_e > 0 and self.white_e == math.inf:
+            raise ConfigError("sensor read_noise_e needs a finite white_e (electrons from white) to be measured against")
         _check_range("ae_target", self.ae_target, 0.0, 0.9)
         _check_range("ae_time_s", self.ae_time_s, 0.01, 10.0)
         lo, hi = self.ae_gain_range if len(self.ae_gain_range) == 2 else (math.nan, math.nan)
@@ -127,6 +149,9 @@ class SensorModel:
             raise ConfigError(f"sensor jpeg_quality must be an int in [1, 100], or 0 for no compression, got {self.jpeg_quality!r}")
         if len(self.distortion) not in (0, 4, 5) or not all(math.isfinite(v) and abs(v) < 2 for v in self.distortion):
             raise ConfigError(f"sensor distortion must be () or OpenCV (k1, k2, p1, p2[, k3]) with |k| < 2, got {self.distortion!r}")
+        if self.distortion and not _monotonic(self.distortion):
+            raise ConfigError(f"sensor distortion {self.distortion} folds the image over itself within "
+                              f"{MAX_LENS_RADIUS} focal lengths of the centre (the radius must grow with the angle)")
 
     @property
     def is_ideal(self) -> bool:
@@ -148,31 +173,39 @@ class SensorModel:
         return int(np.clip(math.ceil(motion_px / BLUR_STEP_PX), 1, self.blur_max_samples))
 
 
+def _monotonic(distortion: tuple[float, ...]) -> bool:
+    """Radial part r(1 + k1 r² + k2 r⁴ + k3 r⁶) increasing out to MAX_LENS_RADIUS (no fold-over)."""
+    k1, k2 = distortion[0], distortion[1]
+    k3 = distortion[4] if len(distortion) == 5 else 0.0
+    r = np.linspace(0.0, MAX_LENS_RADIUS, 400)
+    return bool(np.all(np.diff(r * (1 + k1 * r**2 + k2 * r**4 + k3 * r**6)) > 0))
+
+
 def _check_range(name: str, v, lo: float, hi: float) -> None:
     if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) or not lo <= float(v) <= hi:
         raise ConfigError(f"sensor {name} must be a number in [{lo}, {hi}], got {v!r}")
 
 
 # One registry of presets. Figures are typical of the class of camera, not of one product.
-SENSOR_PRESETS: dict[str, SensorModel] = {
+SENSOR_PRESETS: Mapping[str, SensorModel] = MappingProxyType({
     "ideal": SensorModel(),
-    # indoor USB webcam: long exposure, MJPEG, mild barrel distortion, mains beat on the lights
+    # indoor USB webcam: long exposure, MJPEG, mild barrel distortion, an unsteady lamp
     "webcam": SensorModel(
         name="webcam", exposure_ms=20.0, blur_max_samples=6, white_e=1500.0, read_noise_e=6.0,
         ae_target=0.18, ae_time_s=0.5, ae_drift=0.05, ae_drift_hz=0.08, light_flicker=0.03, light_flicker_hz=1.3,
         jpeg_quality=75, distortion=(-0.08, 0.03, 0.0, 0.0, 0.0)),
-    # phone video held in the hand: short exposure, small pixels, fast AE, H.264-like compression
-    # (per-frame JPEG), daylight through a window dimming and back; the phone's ISP undistorts
+    # phone video held in the hand: short exposure, small pixels, fast AE, compression (per-frame JPEG
+    # for the video codec), daylight through a window dimming and back; the phone's ISP undistorts
     "phone_handheld": SensorModel(
         name="phone_handheld", exposure_ms=8.0, blur_max_samples=6, white_e=800.0, read_noise_e=3.0,
         ae_target=0.18, ae_time_s=0.25, ae_drift=0.08, ae_drift_hz=0.12, light_dim=0.25, light_dim_period_s=5.0,
         jpeg_quality=60),
-    # dim room: long exposure and high gain, so blur and noise dominate
+    # dim room: few electrons, long exposure, high gain, a flickering tube: blur and noise dominate
     "low_light": SensorModel(
         name="low_light", exposure_ms=33.0, blur_max_samples=8, white_e=150.0, read_noise_e=4.0,
         ae_target=0.18, ae_time_s=0.4, ae_gain_range=(0.25, 16.0), ae_drift=0.05, light_flicker=0.05,
-        light_flicker_hz=2.0, light_dim=0.6, light_dim_period_s=600.0, jpeg_quality=70),
-}
+        light_flicker_hz=2.0, jpeg_quality=70),
+})
 SENSOR_NAMES: tuple[str, ...] = tuple(SENSOR_PRESETS)
 REALISTIC_PRESET = "phone_handheld"  # what the benchmarks use by default
 
@@ -181,7 +214,7 @@ def sensor_preset(name: str | SensorModel, **overrides) -> SensorModel:
     """A named preset (or a model), with any field replaced."""
     if isinstance(name, SensorModel):
         base = name
-    elif name in SENSOR_PRESETS:
+    elif isinstance(name, str) and name in SENSOR_PRESETS:
         base = SENSOR_PRESETS[name]
     else:
         raise choice_error("camera preset", name, SENSOR_NAMES)
@@ -194,6 +227,7 @@ def sensor_preset(name: str | SensorModel, **overrides) -> SensorModel:
 # ---------------------------------------------------------------- lights and exposure over time
 
 
+@functools.lru_cache(maxsize=64)
 def _phases(seed: int) -> np.ndarray:
     return np.random.default_rng([seed, DRIFT_STREAM]).uniform(0, 2 * np.pi, 3)
 
@@ -209,12 +243,18 @@ def light_scale(model: SensorModel, seed: int, t: float) -> float:
 def _meter(linear: np.ndarray) -> float:
     """Centre-weighted mean luminance of a linear frame, as an auto-exposure meters it."""
     thumb = cv2.resize(linear, AE_METER_SIZE, interpolation=cv2.INTER_AREA)
-    lum = thumb @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+    return float(((thumb @ LUMA) * _METER_WEIGHTS).sum())
+
+
+def _meter_weights() -> np.ndarray:
     w, h = AE_METER_SIZE
     yy, xx = np.mgrid[0:h, 0:w]
     r2 = ((xx - (w - 1) / 2) ** 2 + (yy - (h - 1) / 2) ** 2) / (w * w + h * h)
-    weight = np.exp(-r2 / (2 * AE_METER_SIGMA ** 2))
-    return float((lum * weight).sum() / weight.sum())
+    weight = np.exp(-r2 / (2 * AE_METER_SIGMA ** 2)).astype(np.float32)
+    return weight / weight.sum()
+
+
+_METER_WEIGHTS = _meter_weights()
 
 
 class SensorState:
@@ -237,7 +277,7 @@ class SensorState:
         """First-order lag in log gain towards the gain that would meet the target."""
         m = self.model
         lo, hi = m.ae_gain_range
-        want = float(np.clip(self._ae_target(t) / max(metered, 1e-4), lo, hi))
+        want = float(np.clip(self._ae_target(t) / max(metered, MIN_METERED), lo, hi))
         if self.gain is None:
             self.gain = want
         else:
@@ -269,8 +309,9 @@ class SensorState:
         fw = m.white_e if m.white_e < math.inf else 1.0
         electrons = linear * np.float32(fw)
         var = (electrons if m.white_e < math.inf else 0.0) + np.float32(m.read_noise_e ** 2)
-        off = int(np.random.default_rng([self.seed, NOISE_STREAM, frame]).integers(0, self._bank.size - self._n))
-        z = self._bank[off: off + self._n].reshape(linear.shape)
+        # two windows at independent random offsets, summed: no frame's noise is a shifted copy of another's
+        o1, o2 = np.random.default_rng([self.seed, NOISE_STREAM, frame]).integers(0, self._bank.size - self._n, 2)
+        z = (self._bank[o1: o1 + self._n] + self._bank[o2: o2 + self._n]).reshape(linear.shape) * np.float32(SQRT_HALF)
         return (electrons + np.sqrt(var) * z) / np.float32(fw)
 
 

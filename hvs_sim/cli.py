@@ -23,7 +23,14 @@ def _scenario_from_args(args):
             raise ConfigError(f"unknown target {args.target!r}; accepted: a flag ({', '.join(FLAG_NAMES)}) or a "
                               f"natural texture ({', '.join(NATURAL_TEXTURES)}); or --target-image PATH")
         overrides["target_flag" if args.target in FLAG_NAMES else "target_texture"] = args.target
-    for key in ("target_image", "target_width", "wall", "wall_images"):
+    if args.target and args.target_image:
+        raise ConfigError("give --target NAME or --target-image PATH, not both")
+    if args.target or args.target_image:  # what the user names replaces the preset's target, whatever kind it was
+        overrides.setdefault("target_texture", None)
+        overrides["target_image"] = args.target_image
+    if args.wall_images and not args.wall:
+        overrides["wall"] = "flags"  # the folder replaces the preset's wall set
+    for key in ("target_width", "wall", "wall_images"):
         if getattr(args, key) is not None:
             overrides[key] = getattr(args, key)
     if getattr(args, "shadows", False):

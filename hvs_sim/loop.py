@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from hvs_sim.camera_model import undistort_points
 from hvs_sim.control.arm import ArmLimits, camera_twist_to_world, twist_to_joint_velocities
 from hvs_sim.control.ibvs import IBVSConfig, IBVSController
 from hvs_sim.errors import ConfigError, choice_error
@@ -85,6 +86,12 @@ class ServoLoop:
         self.flag_desired = self.renderer.project(CameraPose(ref_R, ref_pos), self.renderer.target_corners_world())
         self.desired_depth = float(scenario.standoff)
 
+    def _pinhole(self, pts: np.ndarray) -> np.ndarray:
+        """Image points with the lens distortion taken out, as a calibrated camera would give IBVS its features
+        (the interaction matrix holds for a pinhole); unchanged for a camera without distortion."""
+        dist = self.renderer.sensor.distortion
+        return undistort_points(self.renderer.K, dist, pts) if dist else pts
+
     def __iter__(self) -> Iterator[StepRecord]:
         return self.run()
 
@@ -104,7 +111,7 @@ class ServoLoop:
                 roi = roi_from_corners(flag0)
                 roi0 = roi_corners(roi)
                 desired = r.transfer(flag0, self.flag_desired, roi0)
-                controller = IBVSController(r.K, desired, self.desired_depth, cfg.ibvs)
+                controller = IBVSController(r.K, self._pinhole(desired), self.desired_depth, cfg.ibvs)
             gt_features = r.transfer(flag0, gt.corners, roi0)
             fault, track = None, None
             t0 = time.perf_counter()
@@ -121,7 +128,7 @@ class ServoLoop:
             timings["track"] = 1e3 * (time.perf_counter() - t0)
             t0 = time.perf_counter()
             if fault is None:
-                ctrl = controller.compute(features, np.full(4, gt.target_depth), mode)
+                ctrl = controller.compute(self._pinhole(features), np.full(4, gt.target_depth), mode)
                 twist, gain, sat = ctrl.twist, ctrl.gain, ctrl.saturated
             else:
                 twist, gain, sat = np.zeros(6), 0.0, False

@@ -44,7 +44,8 @@ def test_presets_are_valid_and_ideal_is_identity():
 
 @pytest.mark.parametrize("bad", [{"exposure_ms": -1}, {"jpeg_quality": 101}, {"jpeg_quality": True},
                                  {"white_e": 0.5}, {"read_noise_e": math.nan}, {"ae_gain_range": (2.0, 1.0)},
-                                 {"distortion": (0.1, 0.2, 0.3)}, {"blur_max_samples": 0}, {"light_dim": 1.5}])
+                                 {"distortion": (0.1, 0.2, 0.3)}, {"read_noise_e": 3.0}, {"distortion": 0.1},
+                                 {"ae_gain_range": 5}, {"distortion": (-1.9, 0.0, 0.0, 0.0)}, {"blur_max_samples": 0}, {"light_dim": 1.5}])
 def test_bad_settings_raise(bad):
     with pytest.raises(ConfigError):
         SensorModel(**bad)
@@ -57,6 +58,10 @@ def test_unknown_preset_and_setting():
         sensor_preset("webcam", iso=100)
     with pytest.raises(HvsError):
         CameraConfig(sensor="dslr")
+    with pytest.raises(HvsError):
+        CameraConfig(sensor=["webcam"])
+    with pytest.raises(HvsError, match="one frame"):
+        make_scenario("clear", fps=60.0, camera=CameraConfig(sensor="low_light"))  # 33 ms > 16.7 ms per frame
 
 
 def test_noise_variance_matches_the_model():
@@ -238,6 +243,39 @@ def test_realistic_frames_are_seeded_end_to_end():
     assert np.array_equal(fa, fb)
 
 
+def test_capture_leaves_the_physics_and_the_lights_as_they_were():
+    """Sub-frame renders rewind the world and dim the lights; the arm's motion and later renders must not notice."""
+    from hvs_sim.scene.world import Scene
+
+    def run(camera: str):
+        sc = make_scenario("walk_by", mount="arm", camera=CameraConfig(width=160, height=120, sensor=camera))
+        scene = Scene(sc)
+        r = Renderer(scene)
+        lights = scene.physics.model.light_diffuse.copy()
+        qdot = np.full(len(scene.joint_positions), 0.05)
+        for _ in range(12):
+            r.rgb()
+            assert np.array_equal(scene.physics.model.light_diffuse, lights)
+            scene.advance(qdot)
+        d = scene.physics.data
+        return d.qpos.copy(), d.qvel.copy(), d.mocap_pos.copy(), float(d.time)
+
+    ideal, real = run("ideal"), run("phone_handheld")
+    for a, b in zip(ideal, real):
+        assert np.array_equal(a, b)
+
+
+def test_a_reset_scene_starts_a_new_capture():
+    r = renderer_for("phone_handheld", "walk_by", seed=1)
+    first = r.rgb()
+    for _ in range(5):
+        r.scene.advance()
+        r.rgb()
+    r.scene.reset()
+    assert np.array_equal(r.rgb(), first)  # frame 0 again, auto-exposure from scratch, not a cached frame 5
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize(("camera", "tracker"), [("webcam", "ground_truth"), ("phone_handheld", "deep_lk")])
 def test_closed_loop_converges_with_a_real_camera(camera, tracker):
     """Desired and true features go through the same lens model, so servoing still ends on s*."""

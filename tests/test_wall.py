@@ -9,6 +9,7 @@ import pytest
 from hvs_sim.cli import main
 from hvs_sim.errors import HvsError
 from hvs_sim.render.renderer import Renderer
+from hvs_sim.scene import world
 from hvs_sim.scene.scenarios import SCENARIO_NAMES, WALL_SETS, make_scenario
 from hvs_sim.scene.world import Scene, wall_pictures
 
@@ -73,6 +74,20 @@ def test_bad_target_and_wall_inputs_are_clear_errors(tmp_path):
         make_scenario("clear", target_texture="wood", target_image=str(garbage))
     with pytest.raises(HvsError, match="target_width"):
         make_scenario("clear", target_width=3.0)
+    with pytest.raises(HvsError, match="not both"):
+        make_scenario("clear", wall="natural", wall_images=str(empty))
+    ribbon = tmp_path / "ribbon.png"
+    cv2.imwrite(str(ribbon), _poster(50, 400))
+    with pytest.raises(HvsError, match="aspect"):
+        Scene(make_scenario("clear", target_image=str(ribbon)))
+    tall = tmp_path / "tall.png"
+    cv2.imwrite(str(tall), _poster(100, 300))
+    with pytest.raises(HvsError, match="tall"):
+        Scene(make_scenario("clear", target_image=str(tall), target_width=0.5))
+    (tmp_path / "thin").mkdir()  # 3000×80 shrinks to 1024×27: the size check comes after shrinking
+    cv2.imwrite(str(tmp_path / "thin" / "a.png"), np.zeros((80, 3000, 3), np.uint8))
+    with pytest.raises(HvsError, match="too small"):
+        Scene(make_scenario("clear", wall_images=str(tmp_path / "thin")))
 
 
 def test_wall_images_fill_the_slots(tmp_path):
@@ -88,7 +103,11 @@ def test_wall_images_fill_the_slots(tmp_path):
 
 @pytest.mark.parametrize("wall", [w for w in WALL_SETS if w != "flags"])
 def test_texture_walls_are_seeded(wall):
-    a, b, c = (wall_pictures(make_scenario("clear", seed=s, wall=wall))[1] for s in (3, 3, 4))
+    def pictures(seed):
+        world._texture.cache_clear()  # regenerate, so equality means the same seed gave the same texture
+        return wall_pictures(make_scenario("clear", seed=seed, wall=wall))[1]
+
+    a, b, c = pictures(3), pictures(3), pictures(4)
     assert len(a) == 14 and all(np.array_equal(x, y) for x, y in zip(a, b) if not isinstance(x, str))
     assert any(not isinstance(x, str) and not np.array_equal(x, y) for x, y in zip(a, c))
 
@@ -113,3 +132,25 @@ def test_scenes_list_and_cli_target_image(tmp_path, poster_file, capsys):
     assert "does not exist" in capsys.readouterr().err
     assert main(["scene", "--scenario", "clear", "--frames", "2", "--target", "nope", "--out", str(tmp_path / "u")]) == 2
     assert "natural texture" in capsys.readouterr().err
+
+
+def test_cli_target_and_wall_options_replace_the_presets(poster_file):
+    """What the user names wins over the preset's target and wall, whatever kind they were."""
+    import argparse
+
+    from hvs_sim.cli import _scenario_from_args, build_parser
+
+    def scenario(*argv) -> object:
+        args = build_parser().parse_args(["scene", "--scenario", "photo_pause", *argv])
+        assert isinstance(args, argparse.Namespace)
+        return _scenario_from_args(args)
+
+    assert scenario().target_label == "photo_flower"
+    sc = scenario("--target", "star_field")
+    assert (sc.target_flag, sc.target_texture, sc.target_image) == ("star_field", None, None)
+    sc = scenario("--target-image", str(poster_file))
+    assert (sc.target_texture, sc.target_image) == (None, str(poster_file))
+    sc = scenario("--wall-images", str(poster_file.parent))
+    assert (sc.wall, sc.wall_images) == ("flags", str(poster_file.parent))
+    with pytest.raises(HvsError, match="not both"):
+        scenario("--target", "wood", "--target-image", str(poster_file))

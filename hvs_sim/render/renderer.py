@@ -63,11 +63,12 @@ class Renderer:
         self._hide_people.geomgroup[OCCLUDER_GROUP] = 0
         self.sensor = cam.sensor
         self._state = None if self.sensor.is_ideal else SensorState(self.sensor, scene.scenario.seed, (self.height, self.width))
+        # the lights as modelled; flicker and dimming scale them during a capture and put them back after
         self._maps = distortion_maps(self.K, self.sensor.distortion, self.width, self.height) if self.sensor.distortion else None
         m = scene.physics.model
         self._light0 = (m.light_diffuse.copy(), m.light_ambient.copy(), m.vis.headlight.diffuse.copy(),
                         m.vis.headlight.ambient.copy())
-        self._last: tuple[int, np.ndarray] | None = None  # (frame index, frame): one capture per frame
+        self._last: tuple[tuple[int, int], np.ndarray] | None = None  # ((scene resets, frame), frame): one capture a frame
         self.blur_samples = 1  # sub-frame renders used for the last frame (diagnostics)
 
     @staticmethod
@@ -81,31 +82,36 @@ class Renderer:
 
     def rgb(self) -> np.ndarray:
         """H×W×3 uint8 RGB frame as the camera delivers it (the raw render for the `ideal` model)."""
-        if self._state is None:
+        if self.sensor.is_ideal:
             return self._render()
         scene = self.scene
-        if self._last is not None and self._last[0] == scene.frame_index:
+        key = (scene.resets, scene.frame_index)
+        if self._last is not None and self._last[0] == key:
             return self._last[1].copy()  # auto-exposure and noise advance once per frame
+        if self._last is not None and self._last[0][0] != key[0]:
+            self._state = SensorState(self.sensor, scene.scenario.seed, (self.height, self.width))  # a new episode
         offsets = self.sensor.exposure_offsets(self.sensor.samples_for_motion(self._exposure_motion_px()))
         self.blur_samples = len(offsets)
-        linear = None
-        for dt in offsets:
-            with scene.rewound(float(dt)):
-                self._set_lights(scene.time - float(dt))
-                sub = decode(self._render())
-            linear = sub if linear is None else linear + sub
+        linear = np.zeros((self.height, self.width, 3), np.float32)
+        try:
+            for dt in offsets:
+                with scene.rewound(float(dt)):
+                    self._set_lights(scene.time - float(dt))
+                    linear += decode(self._render())
+        finally:
+            self._set_lights(None)
         linear /= np.float32(len(offsets))
         if self._maps is not None:
             linear = cv2.remap(linear, *self._maps, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         frame = self._state.capture(linear, scene.frame_index, scene.time, 1.0 / scene.scenario.fps)
-        self._last = (scene.frame_index, frame)
+        self._last = (key, frame)
         return frame.copy()
 
-    def _set_lights(self, t: float) -> None:
-        """Scale the scene's lights for the camera model's flicker / dimming (no-op when it has none)."""
+    def _set_lights(self, t: float | None) -> None:
+        """Scale the scene's lights for the camera model's flicker / dimming at time t; None puts them back."""
         if not self.sensor.lights_change:
             return
-        k = light_scale(self.sensor, self.scene.scenario.seed, t)
+        k = 1.0 if t is None else light_scale(self.sensor, self.scene.scenario.seed, t)
         m = self.scene.physics.model
         m.light_diffuse[:] = self._light0[0] * k
         m.light_ambient[:] = self._light0[1] * k

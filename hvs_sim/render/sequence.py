@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 from collections.abc import Iterator
 from dataclasses import asdict
 from pathlib import Path
@@ -38,6 +39,17 @@ def render_sequence(scenario: Scenario, n_frames: int | None = None, progress: b
         frames.append(frame)
         gts.append(gt)
     return np.stack(frames), gts
+
+
+def _json_safe(value):
+    """Strict JSON: infinities (e.g. an ideal sensor's `white_e`) become null."""
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
 
 
 def write_sequence(scenario: Scenario, out_dir: Path, fmt: str = "mp4", n_frames: int | None = None,
@@ -77,8 +89,9 @@ def write_sequence(scenario: Scenario, out_dir: Path, fmt: str = "mp4", n_frames
         out_dir / "ground_truth.npz", time=np.array([r["time"] for r in rows]),
         center=np.array([[r["cx"], r["cy"]] for r in rows]), corners=np.array(corners),
         occlusion=np.array([r["occlusion"] for r in rows]), camera_pose=np.array(cams),
-        joint_positions=np.array(joints), K=Renderer.intrinsics_of(scenario))
-    meta = {"scenario": asdict(scenario), "frames": total, "format": fmt,
+        joint_positions=np.array(joints), K=Renderer.intrinsics_of(scenario),
+        distortion=np.array(scenario.camera.sensor.distortion))
+    meta = {"scenario": _json_safe(asdict(scenario)), "frames": total, "format": fmt,
             "peak_occlusion": float(max(r["occlusion"] for r in rows))}
-    (out_dir / "scenario.json").write_text(json.dumps(meta, indent=2))
+    (out_dir / "scenario.json").write_text(json.dumps(meta, indent=2, allow_nan=False))
     return meta

@@ -17,10 +17,14 @@ from hvs_sim.errors import InputError
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
 MIN_SIDE_PX = 32  # smaller than this cannot hold a template a tracker can lock on to
 MAX_SIDE_PX = 1024  # texture size cap
+TARGET_MAX_ASPECT = 4.0  # a target image may be at most 4:1 or 1:4 (a banner, not a ribbon)
 
 
-def load_image(path: str | Path, what: str = "image") -> np.ndarray:
-    """H×W×3 uint8 RGB from a PNG/JPEG/... file, shrunk to MAX_SIDE_PX; clear errors for bad files."""
+def load_image(path: str | Path, what: str = "image", max_aspect: float | None = None) -> np.ndarray:
+    """H×W×3 uint8 RGB from a PNG/JPEG/... file, shrunk to MAX_SIDE_PX; clear errors for bad files.
+
+    max_aspect: refuse images longer than this many times their width, or the other way round.
+    """
     p = Path(path)
     if not p.is_file():
         raise InputError(f"{what} {str(p)!r} does not exist or is not a file")
@@ -28,11 +32,13 @@ def load_image(path: str | Path, what: str = "image") -> np.ndarray:
     if img is None:
         raise InputError(f"cannot read {what} {str(p)!r}: accepted are images OpenCV reads ({', '.join(IMAGE_SUFFIXES)})")
     h, w = img.shape[:2]
-    if min(h, w) < MIN_SIDE_PX:
-        raise InputError(f"{what} {str(p)!r} is {w}×{h} px: too small to track; at least {MIN_SIDE_PX} px on each side")
-    scale = MAX_SIDE_PX / max(h, w)
+    if max_aspect is not None and max(h, w) > max_aspect * min(h, w):
+        raise InputError(f"{what} {str(p)!r} is {w}×{h} px: accepted aspect ratios are 1:{max_aspect:g} to {max_aspect:g}:1")
+    scale = min(1.0, MAX_SIDE_PX / max(h, w))
     if scale < 1:
         img = cv2.resize(img, (max(1, round(w * scale)), max(1, round(h * scale))), interpolation=cv2.INTER_AREA)
+    if min(img.shape[:2]) < MIN_SIDE_PX:
+        raise InputError(f"{what} {str(p)!r} is {w}×{h} px: too small to track; at least {MIN_SIDE_PX} px on each side")
     return cv2.cvtColor(img, cv2.COLOR_BGR2RGB)
 
 

@@ -33,7 +33,7 @@ class FlagWall:
         n_slots = self.ROWS * self.COLS
         centre = (self.ROWS // 2) * self.COLS + self.COLS // 2
         if others is None:
-            others = [n for n in FLAG_NAMES if n != target]
+            others = [n for n in FLAG_NAMES if not isinstance(target, str) or n != target]
         order = list(others[: n_slots - 1])
         order.insert(centre, target)
         aspect = self.FLAG_H / self.FLAG_W if isinstance(target, str) else target.shape[0] / target.shape[1]

@@ -17,6 +17,7 @@ import numpy as np
 from hvs_sim.camera_model import SensorModel, sensor_preset
 from hvs_sim.errors import ConfigError, InputError, choice_error
 from hvs_sim.scene.flag_art import FLAG_NAMES
+from hvs_sim.scene.people import PERSON_STYLES
 from hvs_sim.scene.textures import NATURAL_TEXTURES, TEXTURE_SETS
 
 MOUNTS = ("handheld", "arm")
@@ -24,7 +25,7 @@ MOUNTS = ("handheld", "arm")
 WALL_SETS: tuple[str, ...] = ("flags", "mixed") + tuple(TEXTURE_SETS)
 MIN_TARGET_WIDTH, MAX_TARGET_WIDTH = 0.05, 0.6  # m: from a beer mat to a poster the arm's camera still sees whole
 OCCLUDER_KINDS = ("walk", "pause", "hover")
-PEOPLE_STYLES = ("textured", "plain")  # how people look: clothed and textured, or the original flat figures
+PEOPLE_STYLES = PERSON_STYLES  # how people look: clothed and textured, or the original flat figures
 
 
 @dataclass(frozen=True)
@@ -138,6 +139,9 @@ class Scenario:
             raise ConfigError("start_offset must stay within 0.15 m and 30 degrees of the reference pose")
         if self.shake < 0:
             raise ConfigError(f"shake must be >= 0, got {self.shake}")
+        if self.camera.sensor.exposure_ms > 1000.0 / self.fps:
+            raise ConfigError(f"the camera's exposure ({self.camera.sensor.exposure_ms:g} ms) must fit in one frame "
+                              f"interval (1000 / fps = {1000.0 / self.fps:.1f} ms)")
         self._check_wall()
 
     def _check_wall(self) -> None:
@@ -151,6 +155,8 @@ class Scenario:
             raise ConfigError(f"target_width must be in [{MIN_TARGET_WIDTH}, {MAX_TARGET_WIDTH}] m, got {self.target_width!r}")
         if self.wall not in WALL_SETS:
             raise choice_error("wall set", self.wall, WALL_SETS)
+        if self.wall != "flags" and self.wall_images is not None:
+            raise ConfigError(f"give a wall set (wall={self.wall!r}) or wall_images, not both")
         if self.wall_images is not None and not Path(self.wall_images).is_dir():
             raise InputError(f"wall image folder {self.wall_images!r} does not exist or is not a folder")
 

@@ -13,9 +13,9 @@ from dm_control.utils import inverse_kinematics
 from hvs_sim.errors import ConfigError
 from hvs_sim.geometry import mat_to_quat, offset_pose, opencv_to_mujoco
 from hvs_sim.scene.flag_art import FLAG_NAMES
-from hvs_sim.scene.images import crop_to_aspect, list_images, load_image
+from hvs_sim.scene.images import TARGET_MAX_ASPECT, crop_to_aspect, list_images, load_image
 from hvs_sim.scene.parts import ArmRig, FlagWall, HandheldRig, Person
-from hvs_sim.scene.scenarios import Scenario, ShakeModel, occluder_lateral
+from hvs_sim.scene.scenarios import MAX_TARGET_WIDTH, Scenario, ShakeModel, occluder_lateral
 from hvs_sim.scene.textures import TEXTURE_SETS, natural_texture
 
 # Reference camera: 1.3 m high, looking along world +X, upright. Its OpenCV rotation has
@@ -168,20 +168,21 @@ class Scene:
         if dt <= 0:
             yield
             return
-        joints = q_now = warm = None
-        if self.is_arm:
-            joints = self.physics.bind(self.rig.joints)
-            q_now, warm = joints.qpos.copy(), self.physics.data.qacc_warmstart.copy()
-            a = min(1.0, dt * self.scenario.fps)
-            joints.qpos = q_now + a * (self._q_prev - q_now)
-        self._apply_kinematics(self.time - dt)
+        d = self.physics.data
+        saved = [(a, getattr(d, a).copy()) for a in ("qpos", "mocap_pos", "mocap_quat", "qacc_warmstart")]
+        time_now = float(d.time)
         try:
+            if self.is_arm:
+                joints = self.physics.bind(self.rig.joints)
+                a = min(1.0, dt * self.scenario.fps)
+                joints.qpos = joints.qpos + a * (self._q_prev - joints.qpos)
+            self._apply_kinematics(self.time - dt)
             yield
         finally:
-            if joints is not None:
-                joints.qpos = q_now
-                self.physics.data.qacc_warmstart[:] = warm
-            self._apply_kinematics(self.time)
+            for name, value in saved:
+                getattr(d, name)[:] = value
+            d.time = time_now
+            self.physics.forward()
 
     # ------------------------------------------------------------------ arm
 
@@ -242,6 +243,7 @@ class Scene:
         return m.dof_frictionloss[dofs] / kv * np.tanh(cmd / 1e-3)
 
     def reset(self) -> None:
+        self.resets = getattr(self, "resets", -1) + 1  # renderers key their per-frame state on (resets, frame)
         self.frame_index = 0
         self._locked_lines: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         if self.is_arm:
@@ -288,7 +290,11 @@ def wall_pictures(scenario: Scenario) -> tuple[str | np.ndarray, list | None]:
     is the same for every seed, as before.
     """
     if scenario.target_image:
-        target = load_image(scenario.target_image, "target image")
+        target = load_image(scenario.target_image, "target image", max_aspect=TARGET_MAX_ASPECT)
+        height = scenario.target_width * target.shape[0] / target.shape[1]
+        if height > MAX_TARGET_WIDTH:
+            raise ConfigError(f"target image {scenario.target_image!r} would be {height:.2f} m tall at target_width "
+                              f"{scenario.target_width} m; at most {MAX_TARGET_WIDTH} m: give a smaller target_width")
     elif scenario.target_texture:
         target = _texture(scenario.target_texture, TARGET_TEXELS, TARGET_TEXELS * 2 // 3, scenario.seed)
     else:
