@@ -30,7 +30,7 @@ def _scenario_from_args(args):
         overrides["target_image"] = args.target_image
     if args.wall_images and not args.wall:
         overrides["wall"] = "flags"  # the folder replaces the preset's wall set
-    for key in ("target_width", "wall", "wall_images"):
+    for key in ("target_width", "wall", "wall_images", "people"):
         if getattr(args, key) is not None:
             overrides[key] = getattr(args, key)
     if getattr(args, "shadows", False):
@@ -40,7 +40,7 @@ def _scenario_from_args(args):
 
 def _add_scene_args(p: argparse.ArgumentParser, default_mount: str) -> None:
     from hvs_sim.camera_model import SENSOR_NAMES
-    from hvs_sim.scene.scenarios import SCENARIO_NAMES, WALL_SETS
+    from hvs_sim.scene.scenarios import PEOPLE_STYLES, SCENARIO_NAMES, WALL_SETS
 
     p.add_argument("--scenario", default="walk_by", help=f"one of: {', '.join(SCENARIO_NAMES)} (hvs-sim scenes --list)")
     p.add_argument("--mount", default=default_mount, help="handheld or arm")
@@ -53,6 +53,8 @@ def _add_scene_args(p: argparse.ArgumentParser, default_mount: str) -> None:
     p.add_argument("--target-width", type=float, default=None, help="physical width of the target in metres (default 0.15)")
     p.add_argument("--wall", default=None, choices=WALL_SETS, help="what fills the wall beside the target (default flags)")
     p.add_argument("--wall-images", default=None, help="a folder of images to fill the wall (centre-cropped to 3:2)")
+    p.add_argument("--people", default=None, choices=PEOPLE_STYLES,
+                   help="how the people look (default textured; plain = the flat figures of earlier versions)")
     p.add_argument("--width", type=int, default=640)
     p.add_argument("--height", type=int, default=480)
     p.add_argument("--fovy", type=float, default=45.0)
@@ -132,9 +134,9 @@ def cmd_bench(args) -> int:
 
         if args.smoke:
             cfg = TrackBenchConfig(methods=METHODS, scenarios=("walk_by",), mounts=("handheld",), seeds=(100,), frames=40,
-                                   workers=args.workers, camera=args.camera)
+                                   workers=args.workers, camera=args.camera, people=args.people)
         else:
-            cfg = TrackBenchConfig(workers=args.workers, camera=args.camera, **{k: tuple(v) for k, v in (("methods", args.methods),
+            cfg = TrackBenchConfig(workers=args.workers, camera=args.camera, people=args.people, **{k: tuple(v) for k, v in (("methods", args.methods),
                                    ("scenarios", args.scenarios), ("mounts", args.mounts), ("seeds", args.seeds)) if v})
         summary = run_track_bench(cfg, Path(args.out))
         for m, v in summary["occlusion_scenarios"].items():
@@ -149,9 +151,9 @@ def cmd_bench(args) -> int:
 
         if args.smoke:
             cfg = ServoBenchConfig(trackers=("ground_truth", "hybrid"), scenarios=("walk_by",), episodes=1, steps=30,
-                                   workers=args.workers, camera=args.camera)
+                                   workers=args.workers, camera=args.camera, people=args.people)
         else:
-            cfg = ServoBenchConfig(workers=args.workers, episodes=args.episodes, camera=args.camera,
+            cfg = ServoBenchConfig(workers=args.workers, episodes=args.episodes, camera=args.camera, people=args.people,
                                    **{k: tuple(v) for k, v in (("trackers", args.methods), ("scenarios", args.scenarios)) if v})
         summary = run_servo_bench(cfg, Path(args.out))
         for s, per in summary["results"].items():
@@ -229,6 +231,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_train)
 
     from hvs_sim.camera_model import REALISTIC_PRESET, SENSOR_NAMES
+    from hvs_sim.scene.scenarios import PEOPLE_STYLES
 
     p = sub.add_parser("bench", help="benchmarks: tracking accuracy (track) or closed-loop convergence (servo)")
     p.add_argument("what", choices=("track", "servo"))
@@ -242,6 +245,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--episodes", type=int, default=10, help="servo only: episodes per scenario and tracker")
     p.add_argument("--camera", default=REALISTIC_PRESET, choices=SENSOR_NAMES,
                    help=f"camera model of every sequence/episode (default {REALISTIC_PRESET}; ideal = clean renders)")
+    p.add_argument("--people", default="textured", choices=PEOPLE_STYLES,
+                   help="how the people look (default textured; plain = the flat figures of earlier benchmarks)")
     p.set_defaults(func=cmd_bench)
 
     p = sub.add_parser("scenes", help="list scenario presets, camera presets, wall sets and targets")

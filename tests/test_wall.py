@@ -146,6 +146,7 @@ def test_cli_target_and_wall_options_replace_the_presets(poster_file):
         return _scenario_from_args(args)
 
     assert scenario().target_label == "photo_flower"
+    assert scenario().people == "textured" and scenario("--people", "plain").people == "plain"
     sc = scenario("--target", "star_field")
     assert (sc.target_flag, sc.target_texture, sc.target_image) == ("star_field", None, None)
     sc = scenario("--target-image", str(poster_file))

@@ -31,6 +31,7 @@ class ServoBenchConfig:
     success_px: float = 1.0
     workers: int = 1
     camera: str = REALISTIC_PRESET  # camera model of every episode (hvs_sim.camera_model.SENSOR_PRESETS)
+    people: str = "textured"  # how the people look ("plain": the flat figures of the earlier benchmarks)
 
 
 def episode_offset(seed: int) -> tuple[float, ...]:
@@ -44,10 +45,10 @@ def _episode(args):
     from hvs_sim.runner import run_episode
     from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 
-    scen_name, tracker, seed, steps, extra, keep, camera = args
+    scen_name, tracker, seed, steps, extra, keep, camera, people = args
     torch.set_num_threads(1 if os.environ.get("HVS_WORKERS", "1") != "1" else 2)
     scen = make_scenario(scen_name, mount="arm", seed=seed, start_offset=episode_offset(seed),
-                         camera=CameraConfig(sensor=camera))
+                         camera=CameraConfig(sensor=camera), people=people)
     n = steps if steps else scen.n_frames + extra
     summary, records = run_episode(scen, tracker, LoopConfig(steps=n, keep_frames=False), progress=False)
     summary["start_offset"] = list(scen.start_offset)
@@ -66,7 +67,7 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     seeds = [config.seed0 + i for i in range(config.episodes)]
-    jobs = [(s, t, seed, config.steps, config.extra_steps, seed == seeds[0], config.camera)
+    jobs = [(s, t, seed, config.steps, config.extra_steps, seed == seeds[0], config.camera, config.people)
             for s in config.scenarios for t in config.trackers for seed in seeds]
     os.environ["HVS_WORKERS"] = str(config.workers)
     episodes, traces = {}, {}

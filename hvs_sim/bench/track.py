@@ -90,6 +90,7 @@ class TrackBenchConfig:
     frames: int | None = None  # None: the scenario's full length
     workers: int = 1
     camera: str = REALISTIC_PRESET  # camera model of every sequence (hvs_sim.camera_model.SENSOR_PRESETS)
+    people: str = "textured"  # how the people look ("plain": the flat figures of the earlier benchmarks)
 
 
 def _job(args):
@@ -97,9 +98,10 @@ def _job(args):
 
     from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 
-    scen, mount, seed, frames, methods, camera = args
+    scen, mount, seed, frames, methods, camera, people = args
     torch.set_num_threads(1 if os.environ.get("HVS_WORKERS", "1") != "1" else 2)
-    seq = make_sequence(make_scenario(scen, mount=mount, seed=seed, camera=CameraConfig(sensor=camera)), n_frames=frames)
+    scenario = make_scenario(scen, mount=mount, seed=seed, camera=CameraConfig(sensor=camera), people=people)
+    seq = make_sequence(scenario, n_frames=frames)
     return (scen, mount, seed), {m: run_tracker(m, seq) for m in methods}
 
 
@@ -108,7 +110,7 @@ def run_track_bench(config: TrackBenchConfig, out: Path, progress: bool = True) 
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    jobs = [(s, m, seed, config.frames, config.methods, config.camera) for s in config.scenarios for m in config.mounts for seed in config.seeds]
+    jobs = [(s, m, seed, config.frames, config.methods, config.camera, config.people) for s in config.scenarios for m in config.mounts for seed in config.seeds]
     results = {}
     os.environ["HVS_WORKERS"] = str(config.workers)
     if config.workers > 1:
