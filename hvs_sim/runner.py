@@ -42,7 +42,8 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig = LoopConfi
     if logger is not None:
         logger.rec.flush()
     summary = {"scenario": scenario.name, "mount": scenario.mount, "seed": scenario.seed, "tracker": tracker,
-               **summarize_run(records, config), "logging_failed": bool(logger and logger.failed)}
+               "camera": scenario.camera.sensor.name, "target": scenario.target_label, "wall": scenario.wall,
+               "people": scenario.people, **summarize_run(records, config), "logging_failed": bool(logger and logger.failed)}
     if json_path:
         Path(json_path).parent.mkdir(parents=True, exist_ok=True)
         Path(json_path).write_text(json.dumps(summary, indent=2))
