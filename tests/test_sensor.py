@@ -161,6 +161,20 @@ def test_auto_exposure_on_a_render_compensates_a_dimming_light():
     assert spread_ae < 1 + (spread_no - 1) / 3  # auto-exposure takes out most of it
 
 
+def test_auto_exposure_reacts_to_a_person_filling_the_view():
+    """A close person changes the metered brightness; the gain follows, so the visible wall changes brightness."""
+    r = renderer_for(SensorModel(name="ae", ae_target=0.18, ae_time_s=0.25), "walk_by", seed=0, **STILL)
+    gains, occlusion = [], []
+    for _ in range(100):
+        r.rgb()
+        gains.append(r._state.gain)
+        occlusion.append(r.ground_truth().occlusion)
+        r.scene.advance()
+    covered = int(np.argmax(occlusion))
+    assert occlusion[covered] > 0.9
+    assert abs(math.log(gains[covered + 5] / gains[0])) > math.log(1.2)  # ≥ 20 % exposure change, either way
+
+
 def test_jpeg_quality_costs_fidelity():
     clean = renderer_for("ideal", **STILL).rgb().astype(float)
     err = {q: np.abs(renderer_for(SensorModel(name="jpeg", jpeg_quality=q), **STILL).rgb() - clean).mean()
