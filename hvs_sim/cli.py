@@ -214,7 +214,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("run", help="closed-loop servo run: render -> track -> IBVS -> arm")
     _add_scene_args(p, default_mount="arm")
-    p.add_argument("--tracker", default=DEFAULT_TRACKER, help="ground_truth, hybrid, deep_lk_residual, deep_lk, ecc, sift")
+    from hvs_sim.tracking import TRACKER_NAMES
+
+    loop_trackers = ("ground_truth", *TRACKER_NAMES)  # as hvs_sim.loop.LOOP_TRACKERS, without importing MuJoCo for --help
+    p.add_argument("--tracker", default=DEFAULT_TRACKER, choices=loop_trackers, metavar="NAME",
+                   help=f"one of: {', '.join(loop_trackers)} (default {DEFAULT_TRACKER}; the hybrid_* names are "
+                        "its ablations, see hvs_sim/tracking/registry.py)")
     p.add_argument("--steps", type=int, default=240)
     p.add_argument("--json", default=None, help="write the run summary here")
     p.add_argument("--rrd", default=None, help="save a rerun recording here")

@@ -13,7 +13,7 @@ from skimage import data
 
 from hvs_sim.errors import HvsError, InputError, StateError, WeightsError
 from hvs_sim.scene.flag_art import draw_flag
-from hvs_sim.tracking import TRACKER_NAMES, make_tracker
+from hvs_sim.tracking import METHOD_NAMES, TRACKER_NAMES, TRACKERS, make_tracker
 from hvs_sim.tracking.feature_lk import sample_points
 from hvs_sim.tracking.frames import MIN_ROI, roi_center
 from hvs_sim.tracking.nets.vgg import VGG_NPZ, load_weights, sha256, vgg16_pool2
@@ -100,7 +100,7 @@ def test_baselines_recover_a_small_warp(name, tol):
 def test_lk_steepest_descent_matches_finite_differences(deep_lk):
     img = photo("astronaut")
     deep_lk.init(img, ROI)
-    lk = deep_lk.lk
+    lk = deep_lk.aligner.lk_engine
     # template features sampled through the warp: d/dp F_T(W(x; p)) at p = 0 vs the stored SD images
     origin = lk.template_origin
     for level in lk.levels:
@@ -145,7 +145,7 @@ def test_torchvision_style_weights_load_and_bad_files_are_refused(tmp_path):
     good = tmp_path / "vgg16-397923af.pth"
     torch.save(state, good)
     tr = make_tracker("deep_lk", weights=str(good))
-    assert tr.net.flavour == "torchvision"
+    assert tr.aligner.net.flavour == "torchvision"
     state["features.7.weight"] = torch.zeros(64, 128, 3, 3)
     bad = tmp_path / "bad.pth"
     torch.save(state, bad)
@@ -204,7 +204,7 @@ def test_blank_and_fully_occluded_frames_give_lost_and_finite_pose(name):
     for frame in (np.zeros_like(img), np.full_like(img, 128)):
         tk = tr.update(frame)
         # the hybrid bridges such frames with its motion predictor first (bounded, then "lost")
-        assert tk.mode in (("predict", "lost") if name == "hybrid" else ("lost",))
+        assert tk.mode in (("predict", "lost") if TRACKERS[name].base == "hybrid" else ("lost",))
         assert np.isfinite(tk.pose).all() and np.isfinite(tk.center).all() and np.isfinite(tk.corners).all()
     covered = img.copy()
     covered[100:380, 150:500] = (200, 40, 160)  # something covers the whole target
@@ -216,7 +216,7 @@ def test_blank_and_fully_occluded_frames_give_lost_and_finite_pose(name):
 @pytest.fixture(scope="module")
 def fuzz_trackers():
     img = photo("coffee")
-    trackers = {n: make_tracker(n) for n in TRACKER_NAMES}
+    trackers = {n: make_tracker(n) for n in METHOD_NAMES}
     for t in trackers.values():
         t.init(img, ROI)
     return img, trackers

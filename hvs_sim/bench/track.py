@@ -28,19 +28,11 @@ SCENARIOS = ("clear", "walk_by", "pause", "partial", "two_people")
 OCCLUSION_SCENARIOS = ("walk_by", "pause", "partial", "two_people")
 # the tracking issue's target set: hand-held walk_by, pause and partial (peak occlusion >= 90 % or long partial)
 TARGET_SET = (("walk_by", "pause", "partial"), "handheld")
-# hybrid_paper: the routing as published (grey OP_t, GRU only); hybrid_grey: only the colour OP_t off;
-# hybrid_no_anchor: only the re-anchoring on keyframes off
-METHOD_SPECS = {"hybrid_paper": ("hybrid", {"background": False, "colour_occlusion": False}),
-                "hybrid_grey": ("hybrid", {"colour_occlusion": False}),
-                "hybrid_no_anchor": ("hybrid", {"reanchor": False}),
-                "hybrid_cv": ("hybrid", {"predictor": "constant_velocity"}),
-                "hybrid_continuity": ("hybrid", {"continuity": True}),
-                "hybrid_hold": ("hybrid", {"predictor": "hold"})}
 
 
 def tracker_for(method: str):
-    name, cfg = METHOD_SPECS.get(method, (method, {}))
-    return make_tracker(name, **cfg)
+    """A fresh tracker for a benchmark method: any name of the tracker registry (tracking/registry.py)."""
+    return make_tracker(method)
 
 
 def run_tracker(method: str, seq: Sequence) -> dict[str, np.ndarray]:

@@ -23,7 +23,7 @@ from hvs_sim.render.sequence import iterate_sequence
 from hvs_sim.scene.flag_art import FLAG_NAMES
 from hvs_sim.scene.scenarios import make_scenario
 from hvs_sim.scene.world import Scene
-from hvs_sim.tracking.deep_lk import DeepLKConfig, DeepLKTracker
+from hvs_sim.tracking.aligner import Aligner, DeepLKConfig
 from hvs_sim.tracking.frames import roi_center, roi_corners, roi_from_corners
 from hvs_sim.tracking.warp import apply, fit_similarity, matrix_to_pose, pose_to_matrix
 
@@ -49,7 +49,7 @@ def residual_dataset(n_sequences: int, frames_per_sequence: int, seed0: int = TR
     """
     from tqdm.auto import tqdm
 
-    tracker = DeepLKTracker(DeepLKConfig())
+    aligner = Aligner(DeepLKConfig())
     per_view = max(1, frames_per_sequence // views)
     groups = []
     bar = tqdm(total=n_sequences * views * per_view, disable=not progress, desc="residual data", unit="sample")
@@ -62,8 +62,8 @@ def residual_dataset(n_sequences: int, frames_per_sequence: int, seed0: int = TR
                              fps=2.0, duration=(views + 1) / 2.0)
         for frame0, gt0 in iterate_sequence(scen, views, occlusion=False):
             roi = roi_from_corners(gt0.corners)
-            tracker.init(frame0, roi)
-            c = tracker.center0
+            aligner.set_template(frame0, roi)
+            c = aligner.center0
             feats_l, warps, labels, kinds = [], [], [], []
             for _ in range(per_view):
                 # the warp is an input of the regressor: cover the range met at run time (servoing moves tens of px)
@@ -73,19 +73,18 @@ def residual_dataset(n_sequences: int, frames_per_sequence: int, seed0: int = TR
                                         borderMode=cv2.BORDER_REFLECT)
                 corners = apply(A_gt, gt0.corners)
                 img, info = degrade(warped, corners, rng)
-                work = tracker.work_image(img)
+                work = aligner.work_image(img)
                 # a start like the global match gives: a few pixels, a degree or two, a few percent off
                 pert = pose_to_matrix((rng.normal(0, 2.0), rng.normal(0, 2.0), rng.normal(0, math.radians(1.5)),
                                        1 + rng.normal(0, 0.02)), c)
-                out = tracker.run_lk(work, tracker.to_work(A_gt @ pert))
+                out = aligner.lk(work, aligner.to_work(A_gt @ pert))
                 bar.update(1)
-                if out is None or not np.all(np.isfinite(out[0].M)):
+                if out is None or not np.all(np.isfinite(out.result.M)):
                     continue
-                res, feats, origin = out
-                M = res.M
-                stacked, warp = tracker.residual_inputs(feats, origin, M)
-                M_gt = tracker.N @ tracker.to_work(A_gt) @ tracker.N_inv
-                label = tracker.rho * (matrix_to_pose(M_gt, (0, 0)) - matrix_to_pose(M, (0, 0)))
+                M = out.result.M
+                stacked, warp = aligner.residual_inputs(out.feats, out.origin, M)
+                M_gt = aligner.N @ aligner.to_work(A_gt) @ aligner.N_inv
+                label = aligner.rho * (matrix_to_pose(M_gt, (0, 0)) - matrix_to_pose(M, (0, 0)))
                 if np.linalg.norm(label[:2]) > 8:  # LK fell into another minimum: not a residual to learn
                     continue
                 feats_l.append(stacked.half())

@@ -1,42 +1,78 @@
 """Trackers behind one contract: `make_tracker(name)`, `init(frame, roi)`, `update(frame) -> Track`.
 
-Imports nothing from scene/render: outside tools call this on their own image sequences.
+Imports nothing from scene/render: outside tools call this on their own image sequences. The names
+`make_tracker` accepts (methods and their named variants) are listed once, in registry.py.
 """
 
 from __future__ import annotations
 
 from dataclasses import fields
 
-from hvs_sim.errors import choice_error
-from hvs_sim.tracking.base import MODES, Track, Tracker
+from hvs_sim.errors import ConfigError, choice_error
+from hvs_sim.tracking.base import MODES, Mode, Track, Tracker
+from hvs_sim.tracking.registry import METHOD_NAMES, TRACKER_NAMES, TRACKERS, VARIANT_NAMES, TrackerSpec
 
-TRACKER_NAMES = ("sift", "ecc", "deep_lk", "deep_lk_residual", "hybrid")
+
+def _unknown_settings(name: str, unknown, accepted) -> ConfigError:
+    return ConfigError(f"{name}: unknown setting(s) {', '.join(sorted(unknown))}; accepted: {', '.join(sorted(accepted))}")
+
+
+def _settings(name: str, cls, config: dict) -> dict:
+    accepted = {f.name for f in fields(cls)}
+    unknown = set(config) - accepted
+    if unknown:
+        raise _unknown_settings(name, unknown, accepted)
+    return config
 
 
 def make_tracker(name: str, **config) -> Tracker:
-    """A fresh tracker by name; keyword arguments go to the method's config dataclass."""
-    if name in ("deep_lk", "deep_lk_residual"):
+    """A fresh tracker by name (registry.TRACKERS); keyword arguments override its settings (the
+    method's config dataclass fields). Unknown names and settings raise a ConfigError listing the
+    accepted ones."""
+    spec: TrackerSpec | None = TRACKERS.get(name)
+    if spec is None:
+        raise choice_error("tracker", name, TRACKER_NAMES)
+    config = {**spec.config, **config}
+    if spec.base == "deep_lk":
         from hvs_sim.tracking.deep_lk import DeepLKConfig, DeepLKTracker
 
-        tracker = DeepLKTracker(DeepLKConfig(**{"residual": name == "deep_lk_residual", **config}))
-        tracker.name = name
-        return tracker
-    if name == "hybrid":
-        from hvs_sim.tracking.deep_lk import DeepLKConfig
+        tracker = DeepLKTracker(DeepLKConfig(**_settings(name, DeepLKConfig, config)))
+    elif spec.base == "hybrid":
+        from hvs_sim.tracking.aligner import DeepLKConfig
         from hvs_sim.tracking.hybrid import HybridConfig, HybridTracker
 
         hybrid_keys = {f.name for f in fields(HybridConfig)} - {"deep"}
-        deep = DeepLKConfig(**{"residual": True, **{k: v for k, v in config.items() if k not in hybrid_keys}})
-        return HybridTracker(HybridConfig(deep=deep, **{k: v for k, v in config.items() if k in hybrid_keys}))
-    if name == "sift":
-        from hvs_sim.tracking.baselines import SiftTracker
+        deep_keys = {f.name for f in fields(DeepLKConfig)}
+        unknown = set(config) - hybrid_keys - deep_keys
+        if unknown:
+            raise _unknown_settings(name, unknown, hybrid_keys | deep_keys)
+        base_deep = HybridConfig.__dataclass_fields__["deep"].default_factory()
+        deep = DeepLKConfig(**{**{f.name: getattr(base_deep, f.name) for f in fields(DeepLKConfig)},
+                               **{k: v for k, v in config.items() if k in deep_keys}})
+        tracker = HybridTracker(HybridConfig(deep=deep, **{k: v for k, v in config.items() if k in hybrid_keys}))
+    else:
+        from hvs_sim.tracking.baselines import EccTracker, SiftTracker
 
-        return SiftTracker(**config)
-    if name == "ecc":
-        from hvs_sim.tracking.baselines import EccTracker
+        cls = {"sift": SiftTracker, "ecc": EccTracker}[spec.base]
+        try:
+            tracker = cls(**config)
+        except TypeError:
+            import inspect
 
-        return EccTracker(**config)
-    raise choice_error("tracker", name, TRACKER_NAMES)
+            accepted = set(inspect.signature(cls).parameters)
+            raise _unknown_settings(name, set(config) - accepted, accepted) from None
+    tracker.name = name
+    return tracker
 
 
-__all__ = ["make_tracker", "Track", "Tracker", "MODES", "TRACKER_NAMES"]
+__all__ = [
+    "METHOD_NAMES",
+    "MODES",
+    "TRACKERS",
+    "TRACKER_NAMES",
+    "VARIANT_NAMES",
+    "Mode",
+    "Track",
+    "Tracker",
+    "make_tracker",
+]

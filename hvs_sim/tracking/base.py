@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from enum import StrEnum
 
 import numpy as np
 
@@ -15,7 +16,16 @@ from hvs_sim.errors import StateError
 from hvs_sim.tracking.frames import check_frame, check_roi, roi_center, roi_corners
 from hvs_sim.tracking.warp import apply, matrix_to_pose
 
-MODES = ("align", "predict", "lost")
+
+class Mode(StrEnum):
+    """How a Track was obtained. A StrEnum: `track.mode == "align"` and CSV/JSON output keep working."""
+
+    ALIGN = "align"  # the target was seen and aligned in this frame
+    PREDICT = "predict"  # not aligned: moved by the scene's motion or extrapolated by the predictor
+    LOST = "lost"  # no trustworthy estimate: the pose is held where it was
+
+
+MODES = tuple(m.value for m in Mode)
 
 
 @dataclass(frozen=True)
@@ -23,10 +33,14 @@ class Track:
     center: np.ndarray  # (2,) frame pixels, pixel centres at integers
     corners: np.ndarray  # (4, 2) template corners (outer pixel edges of the ROI) under the warp
     pose: np.ndarray  # (tx, ty, theta, scale) relative to the template at init
-    mode: str  # "align" | "predict" | "lost"
+    mode: Mode  # align | predict | lost
     occlusion: float  # OP_t in [0, 1]
     score: float  # global match score
     ms: float = 0.0  # wall time of this update
+    # how much to trust this pose, in [0, 1]: 0 when lost; for the deep trackers the template's
+    # trackability (1 for a textured template, lower for one init was told to accept anyway) times
+    # the visible share (1 − OP_t) when aligned, and a decay with unmeasured frames when predicted
+    confidence: float = 1.0
 
 
 @dataclass
@@ -34,9 +48,10 @@ class Estimate:
     """What a method returns per frame: frame-from-template matrix (full resolution) and status."""
 
     A: np.ndarray
-    mode: str
+    mode: Mode
     occlusion: float
     score: float
+    confidence: float | None = None  # None: the base class derives it from mode and OP_t
 
 
 def _finite(*xs) -> bool:
@@ -51,17 +66,22 @@ class Tracker:
     def __init__(self):
         self._shape: tuple[int, int] | None = None
         self.A = np.eye(3)
+        self.template_confidence = 1.0  # trackability of the template taken at init, in [0, 1] (set by _init)
 
     def init(self, frame, roi) -> Track:
+        """Take the template at `roi` of `frame`. Atomic: if it raises, the tracker is uninitialised
+        (update() then says so) rather than half-way between two templates."""
         frame = check_frame(frame)
         roi = check_roi(roi, frame.shape[:2])
-        self._shape = frame.shape[:2]
+        self._shape = None
         self.roi = roi
         self.center0 = roi_center(roi)
         self.corners0 = roi_corners(roi)
         self.A = np.eye(3)
+        self.template_confidence = 1.0
         self._init(frame, roi)
-        return self._track(Estimate(self.A, "align", 0.0, 1.0), 0.0)
+        self._shape = frame.shape[:2]
+        return self._track(Estimate(self.A, Mode.ALIGN, 0.0, 1.0, self.template_confidence), 0.0)
 
     def update(self, frame) -> Track:
         if self._shape is None:
@@ -70,17 +90,21 @@ class Tracker:
         t0 = time.perf_counter()
         est = self._update(frame)
         ok = _finite(est.A) and est.mode in MODES and abs(np.linalg.det(est.A[:2, :2])) > 1e-6
-        if ok and est.mode != "lost":
+        if ok and est.mode != Mode.LOST:
             self.A = est.A
-        mode = est.mode if ok else "lost"
+        mode = Mode(est.mode) if ok else Mode.LOST
         occ = float(np.clip(est.occlusion, 0.0, 1.0)) if _finite(est.occlusion) else 1.0
         score = float(est.score) if _finite(est.score) else 0.0
-        return self._track(Estimate(self.A, mode, occ, score), 1e3 * (time.perf_counter() - t0))
+        conf = est.confidence if ok and est.confidence is not None and _finite(est.confidence) else None
+        if conf is None:
+            conf = 0.0 if mode == Mode.LOST else self.template_confidence * (1.0 - occ)
+        return self._track(Estimate(self.A, mode, occ, score, float(np.clip(conf, 0.0, 1.0))),
+                           1e3 * (time.perf_counter() - t0))
 
     def _track(self, est: Estimate, ms: float) -> Track:
         return Track(center=apply(est.A, self.center0[None])[0], corners=apply(est.A, self.corners0),
-                     pose=matrix_to_pose(est.A, self.center0), mode=est.mode, occlusion=est.occlusion,
-                     score=est.score, ms=ms)
+                     pose=matrix_to_pose(est.A, self.center0), mode=Mode(est.mode), occlusion=est.occlusion,
+                     score=est.score, ms=ms, confidence=float(est.confidence))
 
     def _init(self, frame: np.ndarray, roi) -> None:  # pragma: no cover - abstract
         raise NotImplementedError

@@ -22,6 +22,9 @@ from hvs_sim.errors import ConfigError
 from hvs_sim.tracking.nets.vgg import STRIDES
 from hvs_sim.tracking.warp import params_to_matrix
 
+HUBER_K = 1.345  # Huber threshold in robust standard deviations (95 % efficiency on Gaussian residuals)
+MAD_TO_SIGMA = 1.4826  # median absolute deviation → standard deviation
+
 
 @dataclass(frozen=True)
 class LKConfig:
@@ -44,7 +47,7 @@ class LKConfig:
 def sample_points(fmap: torch.Tensor, pts: np.ndarray, origin: np.ndarray, stride: int) -> tuple[torch.Tensor, np.ndarray]:
     """Bilinear feature samples (N, C) at work-pixel points, and the feature-grid coordinates used."""
     u = (pts - origin - (stride - 1) / 2.0) / stride
-    C, Hf, Wf = fmap.shape
+    _, Hf, Wf = fmap.shape
     g = torch.from_numpy(np.stack([2 * u[:, 0] / max(Wf - 1, 1) - 1, 2 * u[:, 1] / max(Hf - 1, 1) - 1], 1)).float()
     out = F.grid_sample(fmap[None], g[None, None], mode="bilinear", padding_mode="border", align_corners=True)
     return out[0, :, 0].T, u
@@ -87,7 +90,7 @@ class FeatureICLK:
         for name in self.config.levels:
             fmap = feats[name][0] if feats[name].dim() == 4 else feats[name]
             s = STRIDES[name]
-            C, Hf, Wf = fmap.shape
+            _, Hf, Wf = fmap.shape
             jj, ii = np.meshgrid(np.arange(1, Wf - 1), np.arange(1, Hf - 1))
             px = np.stack([origin[0] + s * jj + (s - 1) / 2.0, origin[1] + s * ii + (s - 1) / 2.0], -1).reshape(-1, 2)
             inside = (px[:, 0] >= lo[0]) & (px[:, 0] <= hi[0]) & (px[:, 1] >= lo[1]) & (px[:, 1] <= hi[1])
@@ -121,6 +124,16 @@ class FeatureICLK:
         sampled, _ = sample_points(fmap, self.to_work(M, lv.pts), origin, lv.stride)
         return sampled.T.reshape(-1, *lv.grid)
 
+    def residuals(self, feats: dict[str, torch.Tensor], origin: np.ndarray, M: np.ndarray,
+                  name: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Per-point feature residual norms of the normalised warp M on a level (default: the
+        finest), and which points fall inside the feature map."""
+        lv = self.levels[-1] if name is None else self.level(name)
+        fmap = feats[lv.name][0] if feats[lv.name].dim() == 4 else feats[lv.name]
+        sampled, u = sample_points(fmap, self.to_work(M, lv.pts), origin, lv.stride)
+        inside = (u[:, 0] >= 0) & (u[:, 0] <= fmap.shape[2] - 1) & (u[:, 1] >= 0) & (u[:, 1] <= fmap.shape[1] - 1)
+        return torch.linalg.vector_norm(sampled - lv.feats, dim=1).double().numpy(), inside
+
     def to_work(self, M: np.ndarray, pts: np.ndarray) -> np.ndarray:
         return self.center + self.rho * (pts @ M[:2, :2].T + M[:2, 2])
 
@@ -147,7 +160,7 @@ class FeatureICLK:
                 r = torch.linalg.vector_norm(err, dim=1).double().numpy()
                 w = np.ones_like(r)
                 if self.config.robust:
-                    k = 1.345 * max(1.4826 * np.median(r), 1e-6)
+                    k = HUBER_K * max(MAD_TO_SIGMA * np.median(r), 1e-6)
                     w = np.where(r <= k, 1.0, k / np.maximum(r, 1e-12))
                 C = err.shape[1]
                 sd = level.sd if all_valid else level.sd.view(-1, C, 4)[torch.from_numpy(valid)].reshape(-1, 4)

@@ -19,6 +19,9 @@ from hvs_sim.errors import ConfigError
 class Match:
     center: np.ndarray  # (x, y) of the template centre, frame pixels (sub-pixel)
     score: float  # peak NCC in [-1, 1]; 0 for a blank frame
+    # best NCC away from the peak (further than half the template's smaller side, on the coarse
+    # search): how unique the match is; a self-similar texture (fur, gravel) has second ≈ score
+    second: float = -1.0
 
 
 def _subpixel(resp: np.ndarray, x: int, y: int) -> tuple[float, float]:
@@ -29,6 +32,14 @@ def _subpixel(resp: np.ndarray, x: int, y: int) -> tuple[float, float]:
     dx = para(resp[y, x - 1], resp[y, x], resp[y, x + 1]) if 0 < x < resp.shape[1] - 1 else 0.0
     dy = para(resp[y - 1, x], resp[y, x], resp[y + 1, x]) if 0 < y < resp.shape[0] - 1 else 0.0
     return x + dx, y + dy
+
+
+def _second_peak(resp: np.ndarray, x: int, y: int, radius: int) -> float:
+    """Highest response further than `radius` from the peak at (x, y)."""
+    masked = resp.copy()
+    r = max(radius, 1)
+    masked[max(0, y - r):y + r + 1, max(0, x - r):x + r + 1] = -1.0
+    return float(masked.max()) if masked.size else -1.0
 
 
 class GlobalMatcher:
@@ -47,10 +58,11 @@ class GlobalMatcher:
         if f > 1 and min(th, tw) // f >= 8:
             small = cv2.resize(grey, None, fx=1 / f, fy=1 / f, interpolation=cv2.INTER_AREA)
             tsmall = cv2.resize(template, None, fx=1 / f, fy=1 / f, interpolation=cv2.INTER_AREA)
-            resp = cv2.matchTemplate(small, tsmall, cv2.TM_CCOEFF_NORMED)
-            _, _, _, (x, y) = cv2.minMaxLoc(np.nan_to_num(resp, nan=-1.0))
+            resp = np.nan_to_num(cv2.matchTemplate(small, tsmall, cv2.TM_CCOEFF_NORMED), nan=-1.0)
+            _, _, _, (x, y) = cv2.minMaxLoc(resp)
+            second = _second_peak(resp, x, y, min(tsmall.shape) // 2)
             # top-left corner at full working resolution, then a local search around it
-            x0, y0 = int(round((x + 0.5) * f - 0.5)), int(round((y + 0.5) * f - 0.5))
+            x0, y0 = round((x + 0.5) * f - 0.5), round((y + 0.5) * f - 0.5)
             r = self.window + f
             xa, ya = max(0, x0 - r), max(0, y0 - r)
             xb, yb = min(grey.shape[1] - tw, x0 + r), min(grey.shape[0] - th, y0 + r)
@@ -60,6 +72,8 @@ class GlobalMatcher:
             region = grey
         resp = np.nan_to_num(cv2.matchTemplate(region, template, cv2.TM_CCOEFF_NORMED), nan=-1.0)
         _, score, _, (x, y) = cv2.minMaxLoc(resp)
+        if region is grey:
+            second = _second_peak(resp, x, y, min(th, tw) // 2)
         sx, sy = _subpixel(resp, x, y)
         center = np.array([xa + sx + (tw - 1) / 2.0, ya + sy + (th - 1) / 2.0])
-        return Match(center=center, score=float(score))
+        return Match(center=center, score=float(score), second=float(second))

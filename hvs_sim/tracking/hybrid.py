@@ -22,6 +22,12 @@ Two changes to the paper, both on by default and both measured (README, tracking
 - OP_t over colour channels (`colour_occlusion`, occlusion.py): grey OP_t reported a flag half
   covered by a brown sleeve as clear, so LK aligned on the sleeve.
 
+Built from parts (ViSP-style composition rather than inheritance): an `Aligner` (global match, feature
+LK, residual), the OP_t gate, and motion sources tried in order on frames that are not aligned
+(sources.py: keyframe anchor → scene motion → predictor). `HybridState` holds everything that
+changes from frame to frame, and its four transitions — aligned, measured, predicted, lost — are
+the only way it changes.
+
 The extrapolating predictor is bounded: after `max_predict_frames` consecutive frames with neither
 an alignment nor a background measurement (default 45, 1.5 s at 30 Hz) the mode becomes "lost" and
 the estimate stops moving until re-acquisition.
@@ -31,16 +37,24 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-import cv2
 import numpy as np
 
 from hvs_sim.errors import ConfigError
-from hvs_sim.tracking.background import BackgroundConfig, BackgroundMotion, KeyframeAnchor
-from hvs_sim.tracking.base import Estimate
-from hvs_sim.tracking.deep_lk import DeepLKConfig, DeepLKTracker
+from hvs_sim.tracking.aligner import Aligner, DeepLKConfig
+from hvs_sim.tracking.background import BackgroundConfig
+from hvs_sim.tracking.base import Estimate, Mode, Tracker
 from hvs_sim.tracking.occlusion import aligned_patch, occlusion_fraction
 from hvs_sim.tracking.predictors import PREDICTORS, make_predictor
-from hvs_sim.tracking.warp import matrix_to_pose, pose_to_matrix
+from hvs_sim.tracking.sources import (
+    KeyframeAnchorSource,
+    Kind,
+    MotionSource,
+    PredictorSource,
+    Proposal,
+    SceneMotionSource,
+)
+from hvs_sim.tracking.trackability import check_trackable
+from hvs_sim.tracking.warp import matrix_to_pose
 
 
 @dataclass(frozen=True)
@@ -63,6 +77,15 @@ class HybridConfig:
     background_gate_px: float = 4.0
     background_config: BackgroundConfig = field(default_factory=BackgroundConfig)
     reanchor: bool = True  # after predictor-only frames, measure against aligned keyframes (KeyframeAnchor)
+    # verified re-acquisition (a change to the paper): an alignment further than `reacquire_px` (plus
+    # `background_gate_px` per unmeasured frame) from where the motion sources put the target is
+    # accepted only when the global match is unique (best NCC − second-best peak ≥ `reacquire_margin`)
+    # and the same jump is seen on `reacquire_frames` consecutive frames. On self-similar texture (fur,
+    # gravel) the NCC peak can sit on a look-alike patch while the target is hidden.
+    verify_reacquisition: bool = False
+    reacquire_px: float = 8.0
+    reacquire_margin: float = 0.1
+    reacquire_frames: int = 3
 
     def __post_init__(self):
         if not 0 < self.occlusion_gate <= 1:
@@ -73,124 +96,146 @@ class HybridConfig:
             raise ConfigError(f"background_gate_px must be > 0, got {self.background_gate_px}")
         if not isinstance(self.max_predict_frames, int) or self.max_predict_frames < 1:
             raise ConfigError(f"max_predict_frames must be an int >= 1, got {self.max_predict_frames!r}")
+        if not (self.reacquire_px > 0 and 0 <= self.reacquire_margin < 1):
+            raise ConfigError(f"need reacquire_px > 0 and reacquire_margin in [0, 1), got {self.reacquire_px}, "
+                              f"{self.reacquire_margin}")
+        if not isinstance(self.reacquire_frames, int) or self.reacquire_frames < 1:
+            raise ConfigError(f"reacquire_frames must be an int >= 1, got {self.reacquire_frames!r}")
 
 
-class HybridTracker(DeepLKTracker):
+@dataclass
+class HybridState:
+    """What changes from frame to frame. Changed only by the four transitions below, each of which
+    tells every motion source what happened."""
+
+    center0: np.ndarray  # template centre at init (full-res px)
+    A: np.ndarray  # the current estimate (full-res frame-from-template)
+    keyframe: tuple[np.ndarray, np.ndarray]  # (work image, full-res warp) the scene-motion chain starts from
+    frame_index: int = 0
+    predict_run: int = 0  # consecutive frames with neither an alignment nor a measurement
+    drift_run: int = 0  # frames the predictor alone has moved the estimate since it was last anchored
+    # a far re-acquisition awaiting confirmation: its offset from the estimate, and on how many
+    # consecutive frames it was seen
+    jump: np.ndarray | None = None
+    jump_frames: int = 0
+
+    def jump_seen(self, offset: np.ndarray | None, tolerance_px: float) -> int:
+        """Record this frame's far re-acquisition candidate (None: there is none); returns on how
+        many consecutive frames it has been seen, agreeing within `tolerance_px`."""
+        if offset is None:
+            self.jump, self.jump_frames = None, 0
+            return 0
+        agrees = self.jump is not None and np.linalg.norm(offset - self.jump) <= tolerance_px
+        self.jump, self.jump_frames = offset, (self.jump_frames + 1 if agrees else 1)
+        return self.jump_frames
+
+    def aligned(self, work: np.ndarray, A: np.ndarray, sources: list[MotionSource]) -> None:
+        self.A = A
+        self.predict_run = self.drift_run = 0
+        self.jump, self.jump_frames = None, 0
+        self.keyframe = (work, A)
+        for s in sources:
+            s.on_aligned(work, self)
+
+    def measured(self, work: np.ndarray, proposal: Proposal, sources: list[MotionSource]) -> None:
+        self.A = proposal.A
+        self.predict_run = 0
+        if proposal.kind == Kind.ABSOLUTE:  # the chain goes on from here
+            self.drift_run = 0
+            self.keyframe = (work, proposal.A)
+        for s in sources:
+            s.on_measured(work, self, proposal)
+
+    def predicted(self, work: np.ndarray, A: np.ndarray, sources: list[MotionSource]) -> None:
+        self.A = A
+        self.predict_run += 1
+        self.drift_run += 1
+        self.keyframe = (work, A)
+        for s in sources:
+            s.on_predicted(work, self)
+
+    def lost(self, work: np.ndarray, sources: list[MotionSource]) -> None:
+        """Nothing trustworthy: the estimate stays where it is."""
+        self.predicted(work, self.A, sources)
+
+
+class HybridTracker(Tracker):
     name = "hybrid"
 
     def __init__(self, config: HybridConfig = HybridConfig()):
-        super().__init__(config.deep)
+        super().__init__()
         self.hconfig = config
-        self.predictor = make_predictor(config.predictor, config.history, config.gru_weights)
-        self.predict_run = 0
-        self.background = BackgroundMotion(config.background_config) if config.background else None
-        self.anchor = KeyframeAnchor(config.background_config) if config.background and config.reanchor else None
-        self.frame_index = 0
-        self.drift_run = 0  # frames the motion predictor alone has moved the estimate since it was last anchored
-        self.keyframe = None  # (work image, full-res warp) of the last aligned frame
+        self.config = config.deep
+        self.aligner = Aligner(config.deep)
+        predictor = make_predictor(config.predictor, config.history, config.gru_weights)
+        self.sources: list[MotionSource] = []
+        if config.background and config.reanchor:
+            self.sources.append(KeyframeAnchorSource(self.aligner, config.background_config, config.background_gate_px))
+        if config.background:
+            self.sources.append(SceneMotionSource(self.aligner, config.background_config, config.background_gate_px))
+        self.sources.append(PredictorSource(predictor, config.max_predict_frames))
+        self.state: HybridState | None = None
 
     def _init(self, frame, roi) -> None:
-        super()._init(frame, roi)
-        self.predictor.reset()
-        self.predictor.observe(np.zeros(2))
-        self.predict_run = 0
-        self.keyframe = (self.work_image(frame), np.eye(3))
-        self.frame_index = 0
-        self.drift_run = 0
-        if self.anchor is not None:
-            self.anchor.reset()
-            self.anchor.add(self.keyframe[0], np.eye(3), 0)
+        al = self.aligner
+        work = al.set_template(frame, roi)
+        self.template_confidence = check_trackable(al.template, self.config.min_trackability,
+                                                   self.config.allow_untrackable, self.name)
         self.template_rgb = None
         if self.hconfig.colour_occlusion and frame.ndim == 3:
-            self.template_rgb, _ = aligned_patch(self.work_colour(frame), np.eye(3), self.t_origin, (self.th, self.tw))
-        if self.background is not None:
-            self.background.reset()
+            self.template_rgb = al.template_patch(al.work_colour(frame))
+        self.state = HybridState(center0=self.center0, A=np.eye(3), keyframe=(work, np.eye(3)))
+        for s in self.sources:
+            s.reset(self.state)
 
-    def work_colour(self, frame: np.ndarray) -> np.ndarray:
-        s = self.config.scale
-        return frame if s == 1.0 else cv2.resize(frame, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
+    def _occlusion_at(self, frame: np.ndarray, A_seed: np.ndarray, grey_op: float) -> float:
+        """OP_t at the chosen seed: in colour when configured (occlusion.py), else the grey value."""
+        if self.template_rgb is None:
+            return grey_op
+        al = self.aligner
+        patch, inside = aligned_patch(al.work_colour(frame), A_seed, al.t_origin, (al.th, al.tw))
+        return occlusion_fraction(patch, self.template_rgb, inside, self.config.tau_pix, self.config.normalise_exposure)
 
-    def from_background(self, work: np.ndarray) -> np.ndarray | None:
-        """Full-res warp of the target: its keyframe warp moved by the scene's motion since then."""
-        bg = self.background
-        if bg is None or self.keyframe is None:
-            return None
-        key_work, A_key = self.keyframe
-        if not bg.active:
-            bg.start(key_work)
-        M = bg.update(work)
-        if M is None:
-            return None
-        return self.S_inv @ M @ self.S @ A_key  # (keyframe → this frame, full-res) ∘ keyframe warp
-
-    def from_keyframes(self, work: np.ndarray) -> np.ndarray | None:
-        """After predictor-only frames: the target's warp measured against aligned keyframes, which
-        then anchors the scene-motion chain again; None when there is nothing to re-anchor or no
-        trustworthy measurement."""
-        if self.anchor is None or self.drift_run == 0:
-            return None
-        M = self.anchor.update(work, self.to_work(self.A))
-        if M is None:
-            return None
-        A = self.to_full(M)
-        t = matrix_to_pose(A, self.center0)[:2]
-        moved = np.linalg.norm(t - matrix_to_pose(self.A, self.center0)[:2])
-        if moved > self.hconfig.background_gate_px * (1 + self.drift_run):  # the predictor's drift bounds the jump
-            return None
-        self.predictor.observe(t)
-        self.predict_run = self.drift_run = 0
-        self.keyframe = (work, A)  # the chain goes on from here
-        self.background.reset()
-        return A
+    def _verified(self, A: np.ndarray, m) -> bool:
+        """Whether an alignment may move the estimate there (HybridConfig.verify_reacquisition)."""
+        c, st = self.hconfig, self.state
+        if not c.verify_reacquisition:
+            return True
+        offset = matrix_to_pose(A, st.center0)[:2] - matrix_to_pose(st.A, st.center0)[:2]
+        if np.linalg.norm(offset) <= c.reacquire_px + c.background_gate_px * st.predict_run:
+            st.jump_seen(None, 0.0)
+            return True
+        if m.score - m.second < c.reacquire_margin:  # a look-alike elsewhere: the peak is not unique
+            st.jump_seen(None, 0.0)
+            return False
+        return st.jump_seen(offset, c.background_gate_px) >= c.reacquire_frames
 
     def _update(self, frame) -> Estimate:
-        self.frame_index += 1
-        work = self.work_image(frame)
-        m, A_seed, occ, is_current = self.coarse(work)
-        if self.template_rgb is not None:  # OP_t in colour at the chosen seed (occlusion.py)
-            patch, inside = aligned_patch(self.work_colour(frame), A_seed, self.t_origin, (self.th, self.tw))
-            occ = occlusion_fraction(patch, self.template_rgb, inside, self.config.tau_pix)
+        al, st = self.aligner, self.state
+        st.frame_index += 1
+        work = al.work_image(frame)
+        m, A_seed, occ, is_current = al.coarse(work, st.A)
+        occ = self._occlusion_at(frame, A_seed, occ)
         if m.score <= 0:  # blank or uniform frame
             occ = 1.0
         confident = m.score >= self.config.match_threshold or (self.hconfig.continuity and is_current)
         if occ < self.hconfig.occlusion_gate and confident:
-            A_new, _ = self.align(work, A_seed)
-            if A_new is not None:
-                A = self.to_full(A_new)
-                self.predictor.observe(matrix_to_pose(A, self.center0)[:2])
-                self.predict_run = 0
-                self.keyframe = (work, A)
-                self.drift_run = 0
-                if self.background is not None:
-                    self.background.reset()
-                if self.anchor is not None:
-                    self.anchor.add(work, self.to_work(A), self.frame_index)
-                return Estimate(A, "align", occ, m.score)
-        A_abs = self.from_keyframes(work)
-        if A_abs is not None:
-            return Estimate(A_abs, "predict", occ, m.score)
-        A_bg = self.from_background(work)
-        if A_bg is not None:
-            t_bg = matrix_to_pose(A_bg, self.center0)[:2]
-            # a person filling most of the view can out-vote the scene in RANSAC; a wrong consensus
-            # jumps far more than a hand-held or servoed camera moves between frames (the gate
-            # widens per unmeasured frame)
-            moved = np.linalg.norm(t_bg - matrix_to_pose(self.A, self.center0)[:2])
-            if moved <= self.hconfig.background_gate_px * (1 + self.predict_run):
-                self.predictor.observe(t_bg)
-                self.predict_run = 0
-                return Estimate(A_bg, "predict", occ, m.score)
-        self.predict_run += 1
-        self.drift_run += 1
-        if self.predict_run > self.hconfig.max_predict_frames:
-            A = self.A
-            mode = "lost"
+            A_new = al.align(work, A_seed).A_work
+            if A_new is not None and self._verified(al.to_full(A_new), m):
+                st.aligned(work, al.to_full(A_new), self.sources)
+                return Estimate(st.A, Mode.ALIGN, occ, m.score)
         else:
-            pose = matrix_to_pose(self.A, self.center0)
-            pose[:2] = self.predictor.predict()
-            A = pose_to_matrix(pose, self.center0)
-            mode = "predict"
-        if self.background is not None:  # restart the scene's chain here, from this estimate
-            self.keyframe = (work, A)
-            self.background.reset()
-        return Estimate(A, mode, occ, m.score)
+            st.jump_seen(None, 0.0)
+        for source in self.sources:
+            proposal = source.propose(work, st)
+            if proposal is None:
+                continue
+            if proposal.kind == Kind.PREDICTED:
+                if proposal.mode == Mode.LOST:
+                    st.lost(work, self.sources)
+                else:
+                    st.predicted(work, proposal.A, self.sources)
+            else:
+                st.measured(work, proposal, self.sources)
+            return Estimate(st.A, proposal.mode, occ, m.score)
+        raise AssertionError("the predictor source always proposes")  # pragma: no cover

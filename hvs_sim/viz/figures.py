@@ -10,8 +10,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-COLORS = {"sift": "tab:purple", "ecc": "tab:orange", "deep_lk": "tab:blue", "deep_lk_residual": "tab:cyan",
-          "hybrid": "tab:red", "hybrid_cv": "tab:pink", "hybrid_continuity": "tab:olive", "hybrid_hold": "tab:brown", "ground_truth": "black"}
+from hvs_sim.tracking.registry import TRACKERS  # noqa: E402
+
+# one colour per tracker name, from the registry (distinct across methods and variants)
+COLORS = {"ground_truth": "black", **{name: spec.colour for name, spec in TRACKERS.items()}}
 
 
 def track_triads(results: dict, config, out: Path) -> list[Path]:

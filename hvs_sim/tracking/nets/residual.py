@@ -45,7 +45,7 @@ def load_module(module: nn.Module, path: Path, what: str) -> dict:
         raise WeightsError(f"{what} weights not found at {path}; train them with `hvs-sim train {what}`")
     try:
         state = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as exc:
+    except Exception as exc:  # noqa: BLE001 - torch raises many kinds for a corrupt file; all mean the same here
         raise WeightsError(f"{path} is not a readable torch weights file: {exc}") from None
     expected = module.state_dict()
     missing = sorted(set(expected) - set(state))

@@ -1,0 +1,321 @@
+"""The alignment engine shared by `deep_lk`, the hybrid and residual training: one template, its
+working-resolution geometry, the global match that seeds it, feature LK, and the optional residual.
+
+Everything runs on a grey working image at `scale` of the frame (the paper resizes frames for
+speed; 0.5 keeps VGG at ~5 ms on two CPU cores). Warps passed in and out of `Aligner` methods are
+frame-from-template matrices: `A` at full resolution, `A_work` at working resolution
+(`to_work` / `to_full` convert); the LK itself works on `M = N A_work N⁻¹`, coordinates centred on
+the template and divided by ρ (half its larger side).
+
+The public API (used by the trackers and by `learn/data.py` alike):
+`set_template`, `work_image`, `to_work`/`to_full`, `coarse`, `lk`, `align`, `occlusion`,
+`residual_inputs`, `refine`, `residual_improves`, and the template geometry (`rho`, `N`, `c_work`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+import torch
+
+from hvs_sim.errors import ConfigError
+from hvs_sim.tracking.feature_lk import HUBER_K, MAD_TO_SIGMA, AlignResult, FeatureICLK, LKConfig
+from hvs_sim.tracking.frames import roi_center, to_grey
+from hvs_sim.tracking.global_match import GlobalMatcher, Match
+from hvs_sim.tracking.nets.vgg import vgg16_pool2
+from hvs_sim.tracking.occlusion import TAU_PIX, aligned_patch, occlusion_fraction
+from hvs_sim.tracking.trackability import MIN_TRACKABILITY
+from hvs_sim.tracking.warp import apply, matrix_to_pose, pose_to_matrix
+
+MIN_CROP = 16  # work px: a crop smaller than this on a side means the target is (nearly) off the frame
+MIN_VALID = 0.3  # share of template points that must land inside the crop for an alignment to count
+RECTIFY_DEG, RECTIFY_SCALE = 0.5, 0.01  # re-make the rectified search template past these θ, s changes
+# the residual's correction is kept only when its feature cost is below this share of LK's own (a
+# correction that does not improve the fit comes from a texture unlike the regressor's training)
+RESIDUAL_GAIN = 1.0
+
+
+def select_device(device: str) -> torch.device:
+    if device == "cpu":
+        return torch.device("cpu")
+    if device == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    if device == "cuda":
+        if not torch.cuda.is_available():
+            raise ConfigError("device 'cuda' asked for but torch sees no CUDA device; accepted here: cpu, auto")
+        return torch.device("cuda")
+    raise ConfigError(f"unknown device {device!r}; accepted: cpu, cuda, auto")
+
+
+@dataclass(frozen=True)
+class DeepLKConfig:
+    scale: float = 0.5  # working resolution relative to the frame
+    match_threshold: float = 0.6
+    tau_pix: float = TAU_PIX
+    lk: LKConfig = field(default_factory=LKConfig)
+    margin: int = 8  # work px of context around the template / patch
+    reinit_px: float = 2.0  # re-seed from the global match when it disagrees by more than this (work px)
+    # an alignment that turns or scales the target more than this from its seed in one frame is
+    # rejected (LK pulled by an occluder); a real 30 Hz camera does not move that fast
+    max_rotation_step: float = 0.1  # rad (5.7°)
+    max_scale_step: float = 0.08
+    device: str = "cpu"
+    weights: str | None = None  # VGG weights path (.npz of hvs_sim or torchvision's .pth); None = shipped
+    residual: bool = False  # refine the LK estimate with the residual regressor (the paper's "Deep LK+Δ")
+    residual_weights: str | None = None  # None = shipped assets/weights/residual.pt
+    # keep the residual's correction only when it lowers the feature-space alignment cost (False:
+    # always apply it, as the paper does)
+    verify_residual: bool = False
+    # init refuses a template with less texture than this (tracking/trackability.py); with
+    # allow_untrackable it is tracked anyway and every Track's confidence says how little to trust it
+    min_trackability: float = MIN_TRACKABILITY
+    allow_untrackable: bool = False
+    # OP_t after scaling the template by the frame's exposure gain (occlusion.py; False: raw
+    # intensities, as the paper)
+    normalise_exposure: bool = False
+
+    def __post_init__(self):
+        if not 0.2 <= self.scale <= 1.0:
+            raise ConfigError(f"scale must be in [0.2, 1.0], got {self.scale}")
+        if not 0 < self.match_threshold < 1:
+            raise ConfigError(f"match_threshold must be in (0, 1), got {self.match_threshold}")
+
+
+@dataclass
+class LKOutput:
+    """One plain feature-LK run: the result, and the crop's features it ran on."""
+
+    result: AlignResult
+    feats: dict[str, torch.Tensor]
+    origin: np.ndarray  # work px of the crop's top-left pixel
+
+
+@dataclass
+class Alignment:
+    """What `Aligner.align` found: the work warp (None: rejected), the LK run, whether Δ was kept."""
+
+    A_work: np.ndarray | None
+    lk: LKOutput | None
+    residual_used: bool = False
+
+
+class Aligner:
+    """Template geometry at working resolution, VGG features, global match seeds, feature LK (+ Δ)."""
+
+    def __init__(self, config: DeepLKConfig = DeepLKConfig()):
+        self.config = config
+        self.device = select_device(config.device)
+        self.net = vgg16_pool2(config.weights).to(self.device)
+        self.matcher = GlobalMatcher()
+        self.lk_engine = FeatureICLK(config.lk)
+        self.residual_net = None
+        if config.residual:
+            if "pool2" not in config.lk.levels:
+                raise ConfigError("the residual regressor needs the pool2 LK level")
+            from hvs_sim.tracking.nets.residual import load_residual
+
+            self.residual_net = load_residual(config.residual_weights).to(self.device)
+        s = config.scale
+        self.S = np.array([[s, 0, 0.5 * s - 0.5], [0, s, 0.5 * s - 0.5], [0, 0, 1.0]])  # full → work pixels
+        self.S_inv = np.linalg.inv(self.S)
+
+    # ----------------------------------------------------------------- images and frames
+
+    def work_image(self, frame: np.ndarray) -> np.ndarray:
+        grey = to_grey(frame)
+        if self.config.scale == 1.0:
+            return grey
+        return cv2.resize(grey, None, fx=self.config.scale, fy=self.config.scale, interpolation=cv2.INTER_AREA)
+
+    def work_colour(self, frame: np.ndarray) -> np.ndarray:
+        s = self.config.scale
+        return frame if s == 1.0 else cv2.resize(frame, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
+
+    def features(self, work: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> dict[str, torch.Tensor]:
+        crop = np.ascontiguousarray(work[y0:y1, x0:x1], np.float32)
+        with torch.inference_mode():
+            out = self.net(torch.from_numpy(crop)[None, None].to(self.device), levels=self.config.lk.levels)
+        return {k: v[0].float().cpu() for k, v in out.items()}
+
+    def crop_box(self, corners_work: np.ndarray, shape) -> tuple[int, int, int, int]:
+        m = self.config.margin
+        x0 = max(0, int(np.floor(corners_work[:, 0].min())) - m)
+        y0 = max(0, int(np.floor(corners_work[:, 1].min())) - m)
+        x1 = min(shape[1], int(np.ceil(corners_work[:, 0].max())) + m + 1)
+        y1 = min(shape[0], int(np.ceil(corners_work[:, 1].max())) + m + 1)
+        return x0, y0, x1, y1
+
+    def to_work(self, A_full: np.ndarray) -> np.ndarray:
+        return self.S @ A_full @ self.S_inv
+
+    def to_full(self, A_work: np.ndarray) -> np.ndarray:
+        return self.S_inv @ A_work @ self.S
+
+    # ----------------------------------------------------------------- template
+
+    def set_template(self, frame: np.ndarray, roi) -> np.ndarray:
+        """Take the template from `frame` at `roi`; returns the grey working image of that frame."""
+        work = self.work_image(frame)
+        _, _, w, h = roi
+        s = self.config.scale
+        self.center0 = roi_center(roi)
+        self.c_work = apply(self.S, self.center0[None])[0]
+        self.tw, self.th = max(8, round(w * s)), max(8, round(h * s))
+        self.t_origin = self.c_work - np.array([(self.tw - 1) / 2.0, (self.th - 1) / 2.0])
+        self.template, _ = aligned_patch(work, np.eye(3), self.t_origin, (self.th, self.tw))
+        self.init_work = work  # the template's view, to rectify the search template by the current θ, s
+        self.search_template, self._rectified_for = self.template, (0.0, 1.0)
+        self.rho = max(self.tw, self.th) / 2.0
+        self.N = np.array([[1 / self.rho, 0, -self.c_work[0] / self.rho], [0, 1 / self.rho, -self.c_work[1] / self.rho],
+                           [0, 0, 1]])
+        self.N_inv = np.linalg.inv(self.N)
+        # centres of the template's corner pixels (work px): what the crop around a warp must hold
+        self.t_corners = self.t_origin + np.array([[0, 0], [self.tw - 1, 0], [self.tw - 1, self.th - 1],
+                                                   [0, self.th - 1]])
+        x0, y0, x1, y1 = self.crop_box(self.t_corners, work.shape)
+        feats = self.features(work, x0, y0, x1, y1)
+        lo, hi = self.t_origin - 0.5, self.t_origin + np.array([self.tw - 0.5, self.th - 0.5])
+        self.lk_engine.set_template(feats, np.array([x0, y0], float), self.c_work, self.rho, (lo, hi))
+        return work
+
+    def template_patch(self, image: np.ndarray, A_work: np.ndarray | None = None) -> np.ndarray:
+        """`image` (work resolution, grey or colour) warped into template coordinates (identity by default)."""
+        return aligned_patch(image, np.eye(3) if A_work is None else A_work, self.t_origin, (self.th, self.tw))[0]
+
+    def rectified_template(self, A: np.ndarray) -> np.ndarray:
+        """The template as it should look at pose `A`: the init view rotated and scaled by A's θ, s.
+
+        NCC is not invariant to rotation and scale; while servoing the target grows or shrinks by
+        10 % and more, which would drag the score under the 0.6 gate. Re-made when θ or s moved
+        by more than 0.5° or 1 %.
+        """
+        _, _, theta, scale = matrix_to_pose(A, self.center0)
+        t0, s0 = self._rectified_for
+        if abs(theta - t0) > np.radians(RECTIFY_DEG) or abs(scale / s0 - 1) > RECTIFY_SCALE:
+            # a template pixel q (about the centre c) shows init-view point c + R(−θ)(q − c)/s
+            R = pose_to_matrix((0.0, 0.0, -theta, 1.0 / scale), self.c_work)
+            self.search_template = self.template_patch(self.init_work, R)
+            self._rectified_for = (theta, scale)
+        return self.search_template
+
+    # ----------------------------------------------------------------- per frame
+
+    def occlusion(self, work: np.ndarray, A_work: np.ndarray) -> float:
+        patch, inside = aligned_patch(work, A_work, self.t_origin, (self.th, self.tw))
+        return occlusion_fraction(patch, self.template, inside, self.config.tau_pix, self.config.normalise_exposure)
+
+    def coarse(self, work: np.ndarray, A: np.ndarray, keep_current: bool = True
+               ) -> tuple[Match, np.ndarray, float, bool]:
+        """Global match, and the work-resolution warp to start from (θ, s kept from the pose `A`).
+
+        Two candidates: the current estimate, and the current estimate moved to the global match's
+        centre. OP_t is measured on the patch each of them aligns, and the one showing the target
+        best (lowest OP_t) wins: under partial occlusion the NCC peak can jump to another place
+        while the current estimate still sits on the visible part of the target.
+        The search uses the template rectified by the current θ, s and the template as taken; a
+        match of the latter seeds θ = 0, s = 1. With keep_current=False (the paper's Deep LK
+        baseline) only global-match seeds are considered.
+        Returns (match, seed warp, OP_t at the seed, whether the seed is the current estimate).
+        """
+        A_prev = self.to_work(A)
+        rectified = self.rectified_template(A)
+        matches = [(self.matcher.match(work, rectified), A_prev)]
+        if rectified is not self.template:  # also the template as taken, in case θ, s went wrong
+            matches.append((self.matcher.match(work, self.template), np.eye(3)))
+        m = max(matches, key=lambda mk: mk[0].score)[0]
+        c_prev = apply(A_prev, self.c_work[None])[0]
+        seeds = []
+        for match, A_shape in matches:
+            if not np.all(np.isfinite(match.center)):
+                continue
+            if A_shape is A_prev and np.linalg.norm(match.center - c_prev) <= self.config.reinit_px:
+                seeds.append((match, A_prev))  # agrees with the current estimate: keep its sub-pixel pose
+                continue
+            seed = A_shape.copy()
+            seed[:2, 2] += match.center - apply(A_shape, self.c_work[None])[0]
+            seeds.append((match, seed))
+        if keep_current:
+            candidates = [A_prev] + [sd for _, sd in seeds if sd is not A_prev]
+        else:
+            candidates = [sd for match, sd in seeds if match is m] or [A_prev]
+        best = None
+        for cand in candidates:
+            op = self.occlusion(work, cand)
+            if best is None or op < best[1]:
+                best = (cand, op)
+        seed, op = best
+        return m, seed, op, seed is A_prev
+
+    def lk(self, work: np.ndarray, A_work: np.ndarray) -> LKOutput | None:
+        """Plain feature LK from A_work on a crop around it, or None when the crop is too small
+        (target off the frame)."""
+        x0, y0, x1, y1 = self.crop_box(apply(A_work, self.t_corners), work.shape)
+        if x1 - x0 < MIN_CROP or y1 - y0 < MIN_CROP:
+            return None
+        feats = self.features(work, x0, y0, x1, y1)
+        origin = np.array([x0, y0], float)
+        res = self.lk_engine.align(feats, origin, (y1 - y0, x1 - x0), self.N @ A_work @ self.N_inv)
+        return LKOutput(res, feats, origin)
+
+    def residual_inputs(self, feats, origin, M) -> tuple[torch.Tensor, torch.Tensor]:
+        """(256, rows, cols) template ⊕ aligned pool2 features and the warp [tx/ρ, ty/ρ, θ, s − 1].
+
+        Both feature maps are divided by the template's mean activation, so the regressor sees the
+        same scale whatever the target's contrast.
+        """
+        template = self.lk_engine.template_grid("pool2")
+        scale = template.mean().clamp_min(1e-6)
+        stacked = torch.cat([template, self.lk_engine.aligned_grid(feats, origin, M, "pool2")], 0) / scale
+        pose = matrix_to_pose(M, (0.0, 0.0))  # normalised coordinates: centre at 0, unit ρ
+        warp = torch.tensor([pose[0], pose[1], pose[2], pose[3] - 1.0], dtype=torch.float32)
+        return stacked, warp
+
+    def refine(self, feats, origin, M) -> np.ndarray:
+        """Apply the regressor's Δp (ρ-scaled units, see nets/residual.py) to the LK warp M."""
+        stacked, warp = self.residual_inputs(feats, origin, M)
+        with torch.inference_mode():
+            d = self.residual_net(stacked[None].to(self.device), warp[None].to(self.device))[0].cpu().double().numpy()
+        pose = matrix_to_pose(M, (0.0, 0.0))
+        pose = pose + np.array([d[0], d[1], d[2], d[3]]) / self.rho
+        return pose_to_matrix(pose, (0.0, 0.0))
+
+    def residual_improves(self, out: LKOutput, M_ref: np.ndarray) -> bool:
+        """Whether the residual's warp M_ref fits the template's features better than LK's own
+        answer: robust (Huber) feature cost on the finest LK level, over the points both see,
+        with one scale taken from LK's residuals so that the two costs compare."""
+        r0, in0 = self.lk_engine.residuals(out.feats, out.origin, out.result.M)
+        r1, in1 = self.lk_engine.residuals(out.feats, out.origin, M_ref)
+        both = in0 & in1
+        if both.sum() < MIN_VALID * len(both):
+            return False
+        k = HUBER_K * max(MAD_TO_SIGMA * np.median(r0[both]), 1e-6)
+
+        def huber(r):
+            return float(np.mean(np.where(r <= k, 0.5 * r ** 2, k * (r - 0.5 * k))))
+
+        return huber(r1[both]) < RESIDUAL_GAIN * huber(r0[both])
+
+    def align(self, work: np.ndarray, A_work: np.ndarray) -> Alignment:
+        """Feature LK (+ residual) from A_work; `A_work` of the result is None when the alignment is
+        rejected (a jump of θ or s, too few points in view, a scale or shift no camera makes)."""
+        out = self.lk(work, A_work)
+        if out is None:
+            return Alignment(None, None)
+        res = out.result
+        used = False
+        if self.residual_net is not None and np.all(np.isfinite(res.M)):
+            M_ref = self.refine(out.feats, out.origin, res.M)
+            # verified: the correction must fit the template's features better than LK's own answer
+            used = not self.config.verify_residual or self.residual_improves(out, M_ref)
+            if used:
+                res.M = M_ref
+        A_new = self.N_inv @ res.M @ self.N
+        scale = np.sqrt(abs(np.linalg.det(A_new[:2, :2])))
+        moved = np.linalg.norm(apply(A_new, self.c_work[None]) - apply(A_work, self.c_work[None]))
+        _, _, d_theta, d_scale = matrix_to_pose(np.linalg.solve(A_work, A_new), self.c_work)
+        jump = abs(d_theta) > self.config.max_rotation_step or abs(d_scale - 1) > self.config.max_scale_step
+        if not np.all(np.isfinite(A_new)) or not 0.5 < scale < 2.0 or moved > self.rho or res.valid < MIN_VALID or jump:
+            return Alignment(None, out, used)
+        return Alignment(A_new, out, used)

@@ -1,0 +1,55 @@
+"""The one list of tracker names: the methods and their named variants (ablations), what each is,
+and the colour figures draw it in. The CLI, the closed loop, the benchmarks and the figures all
+read this; `make_tracker(name)` builds any of them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True)
+class TrackerSpec:
+    base: str  # the method that implements it: sift, ecc, deep_lk, hybrid
+    config: dict = field(default_factory=dict)  # settings of that method's config that make this variant
+    description: str = ""
+    colour: str = "#7f7f7f"  # matplotlib colour; distinct across the registry
+
+
+# the methods first, then the hybrid's ablations (each differs from `hybrid` in the named settings)
+TRACKERS: dict[str, TrackerSpec] = {
+    "hybrid": TrackerSpec("hybrid", {}, "the hybrid as shipped: global match, OP_t gate, feature LK, scene motion, "
+                          "keyframe anchor, GRU", "#d62728"),
+    "deep_lk": TrackerSpec("deep_lk", {"residual": False}, "the paper's Deep LK baseline (every frame aligned)",
+                           "#1f77b4"),
+    "deep_lk_residual": TrackerSpec("deep_lk", {"residual": True}, "Deep LK + the residual regressor (Deep LK+Δ)",
+                                    "#17becf"),
+    "ecc": TrackerSpec("ecc", {}, "OpenCV ECC (the paper's LK-only baseline)", "#ff7f0e"),
+    "sift": TrackerSpec("sift", {}, "SIFT keypoints + RANSAC similarity", "#2ca02c"),
+    "hybrid_paper": TrackerSpec("hybrid", {"background": False, "colour_occlusion": False},
+                                "the hybrid as published: grey raw OP_t, GRU only, residual always applied",
+                                "#9467bd"),
+    "hybrid_grey": TrackerSpec("hybrid", {"colour_occlusion": False}, "OP_t in grey instead of colour", "#8c564b"),
+    "hybrid_no_anchor": TrackerSpec("hybrid", {"reanchor": False}, "no re-anchoring on aligned keyframes",
+                                    "#e377c2"),
+    "hybrid_cv": TrackerSpec("hybrid", {"predictor": "constant_velocity"}, "constant velocity instead of the GRU",
+                             "#bcbd22"),
+    "hybrid_hold": TrackerSpec("hybrid", {"predictor": "hold"}, "hold the last position instead of the GRU",
+                               "#7f7f7f"),
+    "hybrid_continuity": TrackerSpec("hybrid", {"continuity": True},
+                                     "a seed continuing the track needs no NCC score", "#aec7e8"),
+    "hybrid_residual": TrackerSpec("hybrid", {"residual": True}, "with the (verified) residual regressor",
+                                   "#ff9896"),
+    "hybrid_residual_unverified": TrackerSpec("hybrid", {"residual": True, "verify_residual": False},
+                                              "with the residual regressor, its correction always applied",
+                                              "#c5b0d5"),
+}
+
+TRACKER_NAMES = tuple(TRACKERS)
+METHOD_NAMES = ("sift", "ecc", "deep_lk", "deep_lk_residual", "hybrid")  # the methods, without ablations
+VARIANT_NAMES = tuple(n for n in TRACKERS if n not in METHOD_NAMES)
+
+
+def tracker_colour(name: str) -> str:
+    spec = TRACKERS.get(name)
+    return spec.colour if spec else "#000000"

@@ -1,0 +1,169 @@
+"""Motion sources of the hybrid tracker's predict path: each proposes a pose for a frame in which the
+target could not be aligned, or nothing. The hybrid tries them in a fixed order and takes the first
+proposal (ViSP composes its template trackers the same way: parts with one interface).
+
+- `KeyframeAnchorSource`: after frames that only the predictor moved, the target measured against
+  earlier aligned keyframes (background.KeyframeAnchor) — an absolute measurement.
+- `SceneMotionSource`: the last aligned (or re-anchored) pose moved by the similarity motion of the
+  surroundings since then (background.BackgroundMotion) — a relative measurement.
+- `PredictorSource`: the motion predictor's extrapolation (GRU, constant velocity, hold), bounded:
+  after `max_frames` unmeasured frames it proposes `lost`.
+
+Sources read the tracker's `HybridState` and never change it; `HybridState`'s transitions (hybrid.py)
+tell them what happened through `on_aligned`, `on_measured` and `on_predicted`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol
+
+import numpy as np
+
+from hvs_sim.tracking.background import BackgroundConfig, BackgroundMotion, KeyframeAnchor
+from hvs_sim.tracking.base import Mode
+from hvs_sim.tracking.predictors import MotionPredictor
+from hvs_sim.tracking.warp import matrix_to_pose, pose_to_matrix
+
+if TYPE_CHECKING:  # pragma: no cover
+    from hvs_sim.tracking.aligner import Aligner
+    from hvs_sim.tracking.hybrid import HybridState
+
+
+class Kind:
+    """What a proposal is, which decides the state transition it causes."""
+
+    ABSOLUTE = "absolute"  # measured against the template's own past views: the chain restarts here
+    RELATIVE = "relative"  # measured relative to the last anchored pose: the chain goes on
+    PREDICTED = "predicted"  # extrapolated: nothing measured
+
+
+@dataclass(frozen=True)
+class Proposal:
+    A: np.ndarray  # full-resolution frame-from-template warp
+    kind: str  # Kind.*
+    mode: Mode  # the mode the Track reports
+    source: str  # the proposing source's name
+
+
+class MotionSource(Protocol):
+    name: str
+
+    def reset(self, state: HybridState) -> None: ...
+
+    def propose(self, work: np.ndarray, state: HybridState) -> Proposal | None: ...
+
+    def on_aligned(self, work: np.ndarray, state: HybridState) -> None: ...
+
+    def on_measured(self, work: np.ndarray, state: HybridState, proposal: Proposal) -> None: ...
+
+    def on_predicted(self, work: np.ndarray, state: HybridState) -> None: ...
+
+
+def _translation(A: np.ndarray, center0: np.ndarray) -> np.ndarray:
+    return matrix_to_pose(A, center0)[:2]
+
+
+class KeyframeAnchorSource:
+    """Absolute re-measurement after predictor-only frames; its jump is bounded by the predictor's
+    possible drift (`gate_px` per unmeasured frame)."""
+
+    name = "keyframe_anchor"
+
+    def __init__(self, aligner: Aligner, config: BackgroundConfig, gate_px: float):
+        self.aligner, self.gate_px = aligner, gate_px
+        self.anchor = KeyframeAnchor(config)
+
+    def reset(self, state: HybridState) -> None:
+        self.anchor.reset()
+        self.anchor.add(state.keyframe[0], np.eye(3), 0)
+
+    def propose(self, work, state):
+        if state.drift_run == 0:
+            return None
+        M = self.anchor.update(work, self.aligner.to_work(state.A))
+        if M is None:
+            return None
+        A = self.aligner.to_full(M)
+        moved = np.linalg.norm(_translation(A, state.center0) - _translation(state.A, state.center0))
+        if moved > self.gate_px * (1 + state.drift_run):  # the predictor's drift bounds the jump
+            return None
+        return Proposal(A, Kind.ABSOLUTE, Mode.PREDICT, self.name)
+
+    def on_aligned(self, work, state):
+        self.anchor.add(work, self.aligner.to_work(state.A), state.frame_index)
+
+    def on_measured(self, work, state, proposal):
+        pass
+
+    def on_predicted(self, work, state):
+        pass
+
+
+class SceneMotionSource:
+    """The keyframe pose moved by the scene's similarity motion since the keyframe. A person filling
+    most of the view can out-vote the scene in RANSAC; a wrong consensus jumps far more than a
+    hand-held or servoed camera moves between frames, so a proposal is refused past `gate_px` per
+    frame since the last measurement."""
+
+    name = "scene_motion"
+
+    def __init__(self, aligner: Aligner, config: BackgroundConfig, gate_px: float):
+        self.aligner, self.gate_px = aligner, gate_px
+        self.motion = BackgroundMotion(config)
+
+    def reset(self, state):
+        self.motion.reset()
+
+    def propose(self, work, state):
+        key_work, A_key = state.keyframe
+        if not self.motion.active:
+            self.motion.start(key_work)
+        M = self.motion.update(work)
+        if M is None:
+            return None
+        al = self.aligner
+        A = al.S_inv @ M @ al.S @ A_key  # (keyframe → this frame, full-res) ∘ keyframe warp
+        moved = np.linalg.norm(_translation(A, state.center0) - _translation(state.A, state.center0))
+        if moved > self.gate_px * (1 + state.predict_run):
+            return None
+        return Proposal(A, Kind.RELATIVE, Mode.PREDICT, self.name)
+
+    def on_aligned(self, work, state):
+        self.motion.reset()  # the chain starts again from the new keyframe
+
+    def on_measured(self, work, state, proposal):
+        if proposal.kind == Kind.ABSOLUTE:
+            self.motion.reset()
+
+    def on_predicted(self, work, state):
+        self.motion.reset()  # restart the scene's chain here, from this estimate
+
+
+class PredictorSource:
+    """The motion predictor: it sees every confident translation and extrapolates the rest."""
+
+    name = "predictor"
+
+    def __init__(self, predictor: MotionPredictor, max_frames: int):
+        self.predictor, self.max_frames = predictor, max_frames
+
+    def reset(self, state):
+        self.predictor.reset()
+        self.predictor.observe(np.zeros(2))
+
+    def propose(self, work, state):
+        if state.predict_run + 1 > self.max_frames:
+            return Proposal(state.A, Kind.PREDICTED, Mode.LOST, self.name)
+        pose = matrix_to_pose(state.A, state.center0)
+        pose[:2] = self.predictor.predict()
+        return Proposal(pose_to_matrix(pose, state.center0), Kind.PREDICTED, Mode.PREDICT, self.name)
+
+    def on_aligned(self, work, state):
+        self.predictor.observe(_translation(state.A, state.center0))
+
+    def on_measured(self, work, state, proposal):
+        self.predictor.observe(_translation(state.A, state.center0))
+
+    def on_predicted(self, work, state):
+        pass
