@@ -6,11 +6,12 @@ red flag has nearly the red's grey level, and grey OP_t then reports a half-cove
 Exposure-normalised (a change to the paper, `normalise_exposure`): the paper compares raw
 intensities with τ = 30 grey levels, so an auto-exposure step of 25 % alone reads as occlusion of
 every bright pixel. An exposure change multiplies the sensor's signal, and after the sRGB curve it
-still (nearly) multiplies the encoded value, so the template is first scaled by one gain: the
-median ratio patch / template over the pixels bright enough to carry it. The median holds while
-less than half the patch is covered; past that the gain may follow the occluder, which can only
-raise OP_t, never hide an occluder (and the gain is bounded to what an exposure change does in
-one tracking gap, so a uniform dark coat is not explained away as an exposure drop).
+still (nearly) multiplies the encoded value, so the template is first scaled by one gain g: the mode
+of the per-pixel log ratios patch / template. The visible part of a target shares one ratio while
+an occluder's ratios spread (its values have nothing to do with the template's), so the mode finds
+the exposure even when less than half the target shows. When fewer than half the pixels agree with
+g, the gain cannot be told from a cover and OP_t is the larger of the normalised and raw values:
+the normalisation only ever lowers OP_t where it clearly explains the change.
 """
 
 from __future__ import annotations
@@ -19,8 +20,10 @@ import cv2
 import numpy as np
 
 TAU_PIX = 30  # grey levels
-GAIN_RANGE = (0.5, 2.0)  # exposure gains the normalisation may explain (outside: clipped, the rest is occlusion)
+GAIN_RANGE = (0.5, 2.0)  # exposure gains the normalisation may explain
 GAIN_MIN_LEVEL = 20  # template pixels darker than this carry too little signal to measure a gain ratio
+GAIN_BIN = 0.04  # log-ratio histogram bin (4 % in gain)
+MIN_SUPPORT = 0.5  # share of pixels that must agree with the gain for it to be trusted
 
 
 def aligned_patch(grey: np.ndarray, A: np.ndarray, origin: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
@@ -38,7 +41,8 @@ def aligned_patch(grey: np.ndarray, A: np.ndarray, origin: np.ndarray, shape: tu
 
 
 def exposure_gain(patch: np.ndarray, template: np.ndarray, inside: np.ndarray | None = None) -> float:
-    """One gain g (patch ≈ g · template): the median ratio over visible, bright-enough pixels, within GAIN_RANGE."""
+    """One gain g (patch ≈ g · template): the mode of the log ratios over visible, bright-enough
+    pixels (module docstring), within GAIN_RANGE; 1 when too few pixels carry a ratio."""
     t = template.astype(np.float32)
     p = patch.astype(np.float32)
     use = t > GAIN_MIN_LEVEL
@@ -46,20 +50,34 @@ def exposure_gain(patch: np.ndarray, template: np.ndarray, inside: np.ndarray | 
         use &= inside[..., None] if use.ndim == 3 else inside
     if use.sum() < 16:
         return 1.0
-    return float(np.clip(np.median(p[use] / t[use]), *GAIN_RANGE))
+    lo, hi = np.log(GAIN_RANGE)
+    r = np.log(np.maximum(p[use], 0.5) / t[use])
+    r = r[(r >= lo) & (r <= hi)]
+    if r.size < 16:
+        return 1.0
+    hist, edges = np.histogram(r, bins=max(1, int(np.ceil((hi - lo) / GAIN_BIN))), range=(lo, hi))
+    hist = np.convolve(hist, np.ones(3), mode="same")  # a ratio on a bin edge counts for both sides
+    k = int(np.argmax(hist))
+    near = r[np.abs(r - 0.5 * (edges[k] + edges[k + 1])) <= 1.5 * GAIN_BIN]
+    return float(np.exp(np.median(near))) if near.size else 1.0
+
+
+def _differs(patch: np.ndarray, ref: np.ndarray, tau: float, inside: np.ndarray | None) -> float:
+    diff = np.abs(patch.astype(np.float32) - ref) > tau
+    if diff.ndim == 3:  # colour
+        diff = diff.any(axis=2)
+    if inside is not None:
+        diff |= ~inside
+    return float(diff.mean())
 
 
 def occlusion_fraction(patch: np.ndarray, template: np.ndarray, inside: np.ndarray | None = None,
                        tau: float = TAU_PIX, normalise_exposure: bool = False) -> float:
     """OP_t in [0, 1]; pixels that fall outside the frame count as occluded (not visible). With
     `normalise_exposure` the template is scaled by the exposure gain first (module docstring)."""
-    if normalise_exposure:
-        ref = template.astype(np.float32) * np.float32(exposure_gain(patch, template, inside))
-        diff = np.abs(patch.astype(np.float32) - ref) > tau
-    else:
-        diff = np.abs(patch.astype(np.int16) - template.astype(np.int16)) > tau
-    if diff.ndim == 3:  # colour
-        diff = diff.any(axis=2)
-    if inside is not None:
-        diff |= ~inside
-    return float(diff.mean())
+    raw = _differs(patch, template.astype(np.float32), tau, inside)
+    if not normalise_exposure:
+        return raw
+    gain = exposure_gain(patch, template, inside)
+    op = _differs(patch, template.astype(np.float32) * np.float32(gain), tau, inside)
+    return op if 1.0 - op >= MIN_SUPPORT else max(op, raw)

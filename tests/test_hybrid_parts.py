@@ -1,0 +1,142 @@
+"""The hybrid's parts on their own: registry, Mode, atomic init and trackability, exposure-normalised
+OP_t, the residual's verification, verified re-acquisition."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from hvs_sim.errors import ConfigError, InputError, StateError
+from hvs_sim.scene.textures import natural_texture
+from hvs_sim.tracking import TRACKERS, Mode, make_tracker
+from hvs_sim.tracking.global_match import GlobalMatcher, Match
+from hvs_sim.tracking.occlusion import occlusion_fraction
+from hvs_sim.tracking.warp import pose_to_matrix
+
+ROI = (250, 170, 120, 84)
+
+
+def _frame(name: str = "brick", seed: int = 3) -> np.ndarray:
+    return natural_texture(name, 640, 480, seed)
+
+
+def _shifted(img: np.ndarray, dx: float, dy: float) -> np.ndarray:
+    import cv2
+
+    M = np.float32([[1, 0, dx], [0, 1, dy]])
+    return cv2.warpAffine(img, M, img.shape[1::-1], flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+
+
+def test_registry_names_build_with_distinct_colours_and_unknown_settings_are_clear():
+    colours = [spec.colour for spec in TRACKERS.values()]
+    assert len(set(colours)) == len(colours)
+    tr = make_tracker("hybrid_paper")
+    assert tr.name == "hybrid_paper" and not tr.hconfig.background and not tr.hconfig.colour_occlusion
+    assert not tr.config.normalise_exposure and not tr.hconfig.verify_reacquisition
+    assert make_tracker("hybrid_cv").hconfig.predictor == "constant_velocity"
+    with pytest.raises(ConfigError, match="accepted: .*occlusion_gate"):
+        make_tracker("hybrid", occlusion_gat=0.3)
+    with pytest.raises(ConfigError, match="ratio"):
+        make_tracker("sift", ratioo=0.5)
+
+
+def test_mode_is_an_enum_that_reads_as_its_string():
+    img = _frame()
+    tr = make_tracker("hybrid")
+    tr.init(img, ROI)
+    tk = tr.update(_shifted(img, 1.5, -0.5))
+    assert tk.mode is Mode.ALIGN and tk.mode == "align" and f"{tk.mode}" == "align"
+    assert tk.confidence == pytest.approx(1.0 - tk.occlusion)
+
+
+def test_flat_template_is_refused_and_the_tracker_stays_uninitialised():
+    img = _frame()
+    img[150:280, 230:400] = (135, 180, 235)  # plain sky where the ROI is
+    rng = np.random.default_rng(0)
+    noisy = np.clip(img + rng.normal(0, 2.0, img.shape), 0, 255).astype(np.uint8)  # sensor noise on it
+    for name in ("deep_lk", "hybrid"):
+        tr = make_tracker(name)
+        with pytest.raises(InputError, match="too little texture"):
+            tr.init(noisy, ROI)
+        with pytest.raises(StateError):
+            tr.update(noisy)
+        tr = make_tracker(name, allow_untrackable=True)
+        tr.init(noisy, ROI)
+        tk = tr.update(noisy)
+        assert 0.0 <= tk.confidence < 0.5 and np.isfinite(tk.pose).all()
+    tr = make_tracker("hybrid")
+    assert tr.init(_frame(), ROI).confidence == 1.0  # textured: full confidence
+
+
+def test_exposure_change_alone_is_not_occlusion_but_a_cover_is():
+    tex = _frame("fabric", 1)[100:184, 100:220]
+    brighter = np.clip(tex.astype(np.float32) * 1.3, 0, 255).astype(np.uint8)
+    darker = (tex.astype(np.float32) * 0.7).astype(np.uint8)
+    assert occlusion_fraction(brighter, tex) > 0.3  # the paper's raw OP_t reads the exposure step as occlusion
+    for frame in (brighter, darker):
+        assert occlusion_fraction(frame, tex, normalise_exposure=True) < 0.05
+    covered = brighter.copy()
+    covered[:, :36] = (40, 35, 30)  # a dark coat over the left 30 %, after the exposure step
+    assert occlusion_fraction(covered, tex) > 0.4  # raw: over the 40 % gate
+    assert occlusion_fraction(covered, tex, normalise_exposure=True) == pytest.approx(0.3, abs=0.05)
+    full = np.full_like(tex, 35)
+    assert occlusion_fraction(full, tex, normalise_exposure=True) >= occlusion_fraction(full, tex) > 0.4  # never lower
+
+
+class _WildResidual(torch.nn.Module):
+    """A regressor trained on other textures: a large correction whatever it sees."""
+
+    def forward(self, feats, warp):
+        return torch.tensor([[6.0, -5.0, 0.05, 0.04]]).expand(len(feats), 4)
+
+
+def test_verified_residual_never_turns_an_lk_alignment_into_a_failure():
+    img = _frame("foliage", 2)
+    plain = make_tracker("deep_lk")
+    verified = make_tracker("deep_lk_residual", verify_residual=True)
+    unverified = make_tracker("deep_lk_residual", verify_residual=False)
+    c = np.array([ROI[0] + (ROI[2] - 1) / 2, ROI[1] + (ROI[3] - 1) / 2])
+    for tr in (verified, unverified):
+        tr.aligner.residual_net = _WildResidual()
+    errors = {id(t): [] for t in (plain, verified, unverified)}
+    for k, (dx, dy, th) in enumerate([(1.2, -0.7, 0.01), (-2.3, 1.4, -0.02), (3.1, 2.2, 0.0), (0.4, -2.6, 0.03)]):
+        frame = _shifted(img, 0, 0)
+        A = pose_to_matrix((dx, dy, th, 1.0), c)
+        import cv2
+
+        frame = cv2.warpAffine(img, A[:2], img.shape[1::-1], flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+        for tr in (plain, verified, unverified):
+            tr.init(img, ROI)
+            tk = tr.update(frame)
+            errors[id(tr)].append((tk.mode, float(np.linalg.norm(tk.center - (c + (dx, dy))))))
+        assert errors[id(plain)][k][0] == "align" and errors[id(plain)][k][1] < 0.2
+        assert errors[id(verified)][k] == errors[id(plain)][k]  # the wild correction was refused
+    assert any(m != "align" or e > 1.0 for m, e in errors[id(unverified)])  # and applied, it does harm
+
+
+def test_second_ncc_peak_tells_a_unique_match_from_a_self_similar_one():
+    img = _frame("gravel", 0)
+    grey = img.mean(2).astype(np.uint8)
+    unique = GlobalMatcher().match(grey, grey[170:254, 250:370].copy())
+    periodic = np.tile(grey[170:200, 250:290], (16, 16))[:480, :640].copy()  # a texture that repeats itself
+    repeated = GlobalMatcher().match(periodic, periodic[170:254, 250:370].copy())
+    assert unique.score - unique.second > 0.2
+    assert repeated.score - repeated.second < 0.05
+
+
+def test_a_far_reacquisition_needs_a_unique_match_on_consecutive_frames():
+    img = _frame()
+    tr = make_tracker("hybrid", verify_reacquisition=True)
+    tr.init(img, ROI)
+    c = tr.hconfig
+    far = pose_to_matrix((60.0, 0.0, 0.0, 1.0), tr.center0)
+    near = pose_to_matrix((c.reacquire_px / 2, 0.0, 0.0, 1.0), tr.center0)
+    assert tr._verified(near, Match(np.zeros(2), 0.8, 0.79))  # close to the estimate: no test
+    assert not tr._verified(far, Match(np.zeros(2), 0.8, 0.78))  # a look-alike elsewhere: refused
+    unique = Match(np.zeros(2), 0.9, 0.3)
+    seen = [tr._verified(far, unique) for _ in range(c.reacquire_frames)]
+    assert seen == [False] * (c.reacquire_frames - 1) + [True]
+    unverified = make_tracker("hybrid", verify_reacquisition=False)
+    unverified.init(img, ROI)
+    assert unverified._verified(far, Match(np.zeros(2), 0.8, 0.78))
