@@ -22,8 +22,9 @@ from hvs_sim.bench.sequences import Sequence, make_sequence
 from hvs_sim.camera_model import REALISTIC_PRESET
 from hvs_sim.tracking import make_tracker
 
+# the methods and the hybrid's ablations a default run compares (any name of tracking/registry.py is accepted)
 METHODS = ("sift", "ecc", "deep_lk", "deep_lk_residual", "hybrid", "hybrid_paper", "hybrid_grey", "hybrid_no_anchor",
-           "hybrid_cv")
+           "hybrid_cv", "hybrid_residual", "hybrid_raw_op")
 SCENARIOS = ("clear", "walk_by", "pause", "partial", "two_people")
 OCCLUSION_SCENARIOS = ("walk_by", "pause", "partial", "two_people")
 # the tracking issue's target set: hand-held walk_by, pause and partial (peak occlusion >= 90 % or long partial)

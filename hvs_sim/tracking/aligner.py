@@ -67,14 +67,14 @@ class DeepLKConfig:
     residual_weights: str | None = None  # None = shipped assets/weights/residual.pt
     # keep the residual's correction only when it lowers the feature-space alignment cost (False:
     # always apply it, as the paper does)
-    verify_residual: bool = False
+    verify_residual: bool = True
     # init refuses a template with less texture than this (tracking/trackability.py); with
     # allow_untrackable it is tracked anyway and every Track's confidence says how little to trust it
     min_trackability: float = MIN_TRACKABILITY
     allow_untrackable: bool = False
     # OP_t after scaling the template by the frame's exposure gain (occlusion.py; False: raw
     # intensities, as the paper)
-    normalise_exposure: bool = False
+    normalise_exposure: bool = True
 
     def __post_init__(self):
         if not 0.2 <= self.scale <= 1.0:

@@ -59,7 +59,8 @@ from hvs_sim.tracking.warp import matrix_to_pose
 
 @dataclass(frozen=True)
 class HybridConfig:
-    deep: DeepLKConfig = field(default_factory=lambda: DeepLKConfig(residual=True))
+    # the residual regressor is off: on held-out data it did not earn its place (README, learned modules)
+    deep: DeepLKConfig = field(default_factory=DeepLKConfig)
     occlusion_gate: float = 0.4
     predictor: str = "gru"
     history: int = 10
@@ -82,7 +83,7 @@ class HybridConfig:
     # accepted only when the global match is unique (best NCC − second-best peak ≥ `reacquire_margin`)
     # and the same jump is seen on `reacquire_frames` consecutive frames. On self-similar texture (fur,
     # gravel) the NCC peak can sit on a look-alike patch while the target is hidden.
-    verify_reacquisition: bool = False
+    verify_reacquisition: bool = True
     reacquire_px: float = 8.0
     reacquire_margin: float = 0.1
     reacquire_frames: int = 3

@@ -18,15 +18,18 @@ class TrackerSpec:
 
 # the methods first, then the hybrid's ablations (each differs from `hybrid` in the named settings)
 TRACKERS: dict[str, TrackerSpec] = {
-    "hybrid": TrackerSpec("hybrid", {}, "the hybrid as shipped: global match, OP_t gate, feature LK, scene motion, "
-                          "keyframe anchor, GRU", "#d62728"),
+    "hybrid": TrackerSpec("hybrid", {}, "the hybrid as shipped: global match, exposure-normalised colour OP_t gate, "
+                          "feature LK, verified re-acquisition, scene motion, keyframe anchor, GRU", "#d62728"),
     "deep_lk": TrackerSpec("deep_lk", {"residual": False}, "the paper's Deep LK baseline (every frame aligned)",
                            "#1f77b4"),
-    "deep_lk_residual": TrackerSpec("deep_lk", {"residual": True}, "Deep LK + the residual regressor (Deep LK+Δ)",
+    "deep_lk_residual": TrackerSpec("deep_lk", {"residual": True, "verify_residual": False},
+                                    "Deep LK + the residual regressor, always applied (the paper's Deep LK+Δ)",
                                     "#17becf"),
     "ecc": TrackerSpec("ecc", {}, "OpenCV ECC (the paper's LK-only baseline)", "#ff7f0e"),
     "sift": TrackerSpec("sift", {}, "SIFT keypoints + RANSAC similarity", "#2ca02c"),
-    "hybrid_paper": TrackerSpec("hybrid", {"background": False, "colour_occlusion": False},
+    "hybrid_paper": TrackerSpec("hybrid", {"background": False, "colour_occlusion": False, "residual": True,
+                                           "verify_residual": False, "normalise_exposure": False,
+                                           "verify_reacquisition": False},
                                 "the hybrid as published: grey raw OP_t, GRU only, residual always applied",
                                 "#9467bd"),
     "hybrid_grey": TrackerSpec("hybrid", {"colour_occlusion": False}, "OP_t in grey instead of colour", "#8c564b"),
@@ -43,6 +46,11 @@ TRACKERS: dict[str, TrackerSpec] = {
     "hybrid_residual_unverified": TrackerSpec("hybrid", {"residual": True, "verify_residual": False},
                                               "with the residual regressor, its correction always applied",
                                               "#c5b0d5"),
+    "hybrid_raw_op": TrackerSpec("hybrid", {"normalise_exposure": False},
+                                 "OP_t on raw intensities (the paper's), not exposure-normalised", "#c49c94"),
+    "hybrid_unverified_reacquisition": TrackerSpec("hybrid", {"verify_reacquisition": False},
+                                                   "a far global-match jump is accepted without verification",
+                                                   "#f7b6d2"),
 }
 
 TRACKER_NAMES = tuple(TRACKERS)
