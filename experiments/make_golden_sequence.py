@@ -20,8 +20,10 @@ import numpy as np
 import torch
 
 from hvs_sim.bench.sequences import make_sequence
+from hvs_sim.render.camera import transfer_points
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 from hvs_sim.tracking import make_tracker
+from hvs_sim.tracking.frames import roi_center, roi_from_corners
 
 SCENARIO, SEED = "pause", 101  # a benchmark seed whose person fills the view: every path of the hybrid runs
 FIRST, COUNT = 45, 95  # the frames kept: before the person arrives to after they leave
@@ -69,16 +71,11 @@ def main() -> None:
     args = ap.parse_args()
     seq = make_sequence(make_scenario(SCENARIO, mount="handheld", seed=SEED, camera=CameraConfig(sensor=CAMERA)),
                         n_frames=FIRST + COUNT)
-    gt_all = seq.gt_track
     rendered = seq.frames[FIRST:FIRST + COUNT][:, CROP[0], CROP[1]]
     video = Path(args.out).with_suffix(".mp4")
     write_video(rendered, video)
     frames = decode(video)
     # the ROI is the target's outline at the first kept frame; the truth is that ROI's centre carried on
-    from hvs_sim.tracking.frames import roi_center, roi_from_corners
-
-    from hvs_sim.render.camera import transfer_points
-
     shift = np.array([CROP[1].start, CROP[0].start], float)  # full frame → crop pixels
     corners = seq.corners[FIRST:FIRST + COUNT]
     roi_full = roi_from_corners(corners[0])

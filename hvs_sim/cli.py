@@ -123,12 +123,75 @@ def _provenance(argv: list[str]) -> dict:
     try:
         commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=True,
                                 cwd=Path(__file__).parent).stdout.strip()
-    except Exception:
+    except (OSError, subprocess.SubprocessError):  # no git, or not a checkout
         commit = "unknown"
     return {"command": "hvs-sim " + " ".join(argv), "commit": commit}
 
 
+def _check_bench_options(args) -> None:
+    """Refuse options that do not apply to the chosen benchmark, rather than ignoring them."""
+    if args.what == "servo":
+        for flag, value in (("--imagery natural", args.imagery == "natural"), ("--sources", args.sources)):
+            if value:
+                raise ConfigError(f"{flag} applies to `bench track` only")
+    elif args.imagery == "natural":
+        for flag, value in (("--mounts", args.mounts), ("--people", args.people)):
+            if value:
+                raise ConfigError(f"{flag} does not apply to --imagery natural (planar photos, a drawn person): "
+                                  "leave it out, or use --imagery sim")
+    elif args.sources:
+        raise ConfigError("--sources applies to --imagery natural only")
+
+
+def cmd_bench_natural(args) -> int:
+    from hvs_sim.bench.natural import (
+        DEFAULT_SEEDS,
+        NATURAL_KINDS,
+        NATURAL_SOURCES,
+        NaturalBenchConfig,
+        run_natural_bench,
+        smoke_config,
+    )
+    from hvs_sim.bench.track import METHODS
+
+    if args.smoke:
+        cfg = smoke_config(tuple(args.methods or METHODS), camera=args.camera, workers=args.workers)
+        print(f"SMOKE RUN ({cfg.sources[0]}, walk_by, {cfg.frames} frames): checks the pipeline, NOT a result")
+    else:
+        cfg = NaturalBenchConfig(methods=tuple(args.methods or NaturalBenchConfig.methods),
+                                 sources=tuple(args.sources or NATURAL_SOURCES), kinds=tuple(args.scenarios or NATURAL_KINDS),
+                                 seeds=tuple(args.seeds or DEFAULT_SEEDS), camera=args.camera, workers=args.workers)
+    summary = run_natural_bench(cfg, Path(args.out))
+    for m, a in summary["overall"].items():
+        v = summary["visible_lt_40"][m]
+        t = summary["timing"][m]
+        ratio = t["ratio_to_ecc"]
+        print(f"{m:18s} all: {a['pct_le_2px']:5.1f}% ≤2px median {a['median_px']:.2f}px | occlusion < 40 %: "
+              f"{v.get('pct_le_2px', float('nan')):5.1f}% ≤2px | {t['median_ms']:.1f} ms median"
+              + ("" if ratio is None else f" ({ratio:.2f}× ecc)"))
+    for kind, per in summary["per_kind"].items():
+        print(f"  {kind:8s} " + "  ".join(f"{m} {v['pct_le_2px']:.1f}% ≤2px {v['median_px']:.2f}px" for m, v in per.items()))
+    if args.smoke:
+        print("SMOKE RUN: the figures above check the pipeline, they are NOT a result")
+    return 0
+
+
 def cmd_bench(args) -> int:
+    _check_bench_options(args)
+    if args.what == "track" and args.imagery == "natural":
+        status = cmd_bench_natural(args)
+    else:
+        status = _cmd_bench_sim(args)
+    path = Path(args.out) / "summary.json"
+    data = json.loads(path.read_text())
+    data["provenance"] = _provenance(args.argv)
+    path.write_text(json.dumps(data, indent=2))
+    print(f"results: {args.out}/ (summary.json, table.md, figures)")
+    return status
+
+
+def _cmd_bench_sim(args) -> int:
+    args.people = args.people or "textured"
     if args.what == "track":
         from hvs_sim.bench.track import METHODS, TrackBenchConfig, run_track_bench
 
@@ -159,11 +222,6 @@ def cmd_bench(args) -> int:
         for s, per in summary["results"].items():
             for t, r in per.items():
                 print(f"{s:8s} {t:18s} success {100 * r['success_rate']:5.1f}%  median final {r['median_final_error_px']:.2f} px")
-    path = Path(args.out) / "summary.json"
-    data = json.loads(path.read_text())
-    data["provenance"] = _provenance(args.argv)
-    path.write_text(json.dumps(data, indent=2))
-    print(f"results: {args.out}/ (summary.json, table.md, figures)")
     return 0
 
 
@@ -244,14 +302,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--smoke", action="store_true", help="a tiny version that runs in about a minute")
     p.add_argument("--workers", type=int, default=1, help="processes (episodes and sequences are independent)")
     p.add_argument("--methods", nargs="+", default=None, help="trackers to compare")
-    p.add_argument("--scenarios", nargs="+", default=None)
-    p.add_argument("--mounts", nargs="+", default=None, help="track only: handheld and/or arm")
-    p.add_argument("--seeds", nargs="+", type=int, default=None, help="track only")
+    p.add_argument("--imagery", default="sim", choices=("sim", "natural"),
+                   help="track only: sim = rendered scenes (default); natural = photos and procedural pictures moved "
+                        "like a hand-held phone, with a drawn person (hvs_sim/bench/natural.py)")
+    p.add_argument("--scenarios", nargs="+", default=None,
+                   help="scenarios; with --imagery natural the kinds: clear walk_by pause partial (default all)")
+    p.add_argument("--sources", nargs="+", default=None,
+                   help="--imagery natural only: pictures (default all of hvs_sim.bench.natural.NATURAL_SOURCES)")
+    p.add_argument("--mounts", nargs="+", default=None, help="track only, sim imagery: handheld and/or arm")
+    p.add_argument("--seeds", nargs="+", type=int, default=None, help="track only (natural default: 500 501)")
     p.add_argument("--episodes", type=int, default=10, help="servo only: episodes per scenario and tracker")
     p.add_argument("--camera", default=REALISTIC_PRESET, choices=SENSOR_NAMES,
                    help=f"camera model of every sequence/episode (default {REALISTIC_PRESET}; ideal = clean renders)")
-    p.add_argument("--people", default="textured", choices=PEOPLE_STYLES,
-                   help="how the people look (default textured; plain = the flat figures of earlier benchmarks)")
+    p.add_argument("--people", default=None, choices=PEOPLE_STYLES,
+                   help="sim imagery: how the people look (default textured; plain = the flat figures of earlier "
+                        "benchmarks)")
     p.set_defaults(func=cmd_bench)
 
     p = sub.add_parser("scenes", help="list scenario presets, camera presets, wall sets and targets")
@@ -269,7 +334,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    args = build_parser().parse_args(argv)
+    try:
+        args = build_parser().parse_args(argv)
+    except SystemExit as exc:  # argparse has printed the usage error (or --help); a caller gets the code back
+        return exc.code if isinstance(exc.code, int) else 2
     args.argv = argv
     if getattr(args, "command", None) == "bench" and args.out is None:
         args.out = f"out/bench_{args.what}"

@@ -1,9 +1,14 @@
-"""Frame degradations for residual-regressor training: partial occlusion, blur, lighting, noise."""
+"""Frame degradations for residual-regressor training: partial occlusion, blur, lighting, and what a
+real camera adds (shot and read noise in linear light, JPEG at a random quality)."""
 
 from __future__ import annotations
 
 import cv2
 import numpy as np
+
+from hvs_sim.camera_model import decode, encode, jpeg
+
+SENSOR_SHARE = 0.7  # of training samples that go through the sensor model (the rest stay as rendered)
 
 
 def occlude(frame: np.ndarray, corners: np.ndarray, rng: np.random.Generator, max_cover: float = 0.45) -> float:
@@ -20,7 +25,7 @@ def occlude(frame: np.ndarray, corners: np.ndarray, rng: np.random.Generator, ma
         box = (x0 - 20, y0 - 20, x1 + 20, y0 + cover * (y1 - y0))
     else:
         box = (x0 - 20, y1 - cover * (y1 - y0), x1 + 20, y1 + 20)
-    xa, ya, xb, yb = (int(round(v)) for v in box)
+    xa, ya, xb, yb = (round(v) for v in box)
     xa, ya = max(xa, 0), max(ya, 0)
     xb, yb = min(xb, frame.shape[1]), min(yb, frame.shape[0])
     if xb <= xa or yb <= ya:
@@ -53,6 +58,20 @@ def lighting(frame: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     return np.clip(f, 0, 255).astype(np.uint8)
 
 
+SENSOR_WHITE_E = (150.0, 2000.0)  # electrons at white: low light … a good phone in daylight
+SENSOR_READ_E = (2.0, 8.0)
+JPEG_QUALITY = (40, 95)
+
+
+def sensor(frame: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Shot + read noise in linear light (as camera_model.py), then JPEG at a random quality."""
+    lin = decode(frame)
+    white, read = rng.uniform(*SENSOR_WHITE_E), rng.uniform(*SENSOR_READ_E)
+    electrons = lin * np.float32(white)
+    noisy = electrons + np.sqrt(electrons + np.float32(read ** 2)) * rng.standard_normal(lin.shape, dtype=np.float32)
+    return jpeg(encode(np.clip(noisy / np.float32(white), 0.0, 1.0)), int(rng.integers(*JPEG_QUALITY)))
+
+
 def degrade(frame: np.ndarray, corners: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, dict]:
     """A degraded copy and what was done to it."""
     out = frame.copy()
@@ -63,4 +82,6 @@ def degrade(frame: np.ndarray, corners: np.ndarray, rng: np.random.Generator) ->
         out = blur(out, rng)
         info["blurred"] = True
     out = lighting(out, rng)
+    if rng.random() < SENSOR_SHARE:
+        out = sensor(out, rng)
     return out, info

@@ -64,7 +64,7 @@ class GRUTrainConfig:
 
 def _split(n: int, share: float, seed: int) -> tuple[list[int], list[int]]:
     idx = np.random.default_rng(seed).permutation(n)
-    n_val = max(1, int(round(share * n)))
+    n_val = max(1, round(share * n))
     return sorted(idx[n_val:].tolist()), sorted(idx[:n_val].tolist())
 
 

@@ -48,6 +48,7 @@ class BackgroundConfig:
     spacing: int = 10  # frames between kept keyframes (the newest is always the latest aligned frame)
     anchor_points: int = 150  # corners per keyframe
     max_fb_px: float = 0.5  # forward–backward LK disagreement above which a point is dropped (chain and anchor)
+    competing: bool = True  # a second consensus competes with the first; the one moving as the scene did wins
 
     def __post_init__(self):
         for name in ("hop", "keyframes", "spacing"):
@@ -62,6 +63,13 @@ class BackgroundConfig:
                               f"got {self.max_points}, {self.min_inliers}")
         if not 0 < self.min_inlier_ratio <= 1:
             raise ConfigError(f"min_inlier_ratio must be in (0, 1], got {self.min_inlier_ratio}")
+
+
+COMPETING_SHARE = 0.2  # a second consensus this large (of the first's inliers) competes with it
+
+
+def apply_h(M: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    return pts @ M[:2, :2].T + M[:2, 2]
 
 
 def _lk_params(c: BackgroundConfig) -> dict:
@@ -83,17 +91,52 @@ def _lk_checked(src: np.ndarray, dst: np.ndarray, start: np.ndarray, c: Backgrou
     return nxt, ok
 
 
-def _trusted_similarity(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig) -> np.ndarray | None:
-    """RANSAC similarity src → dst (3×3), or None when too few points agree on it."""
-    if len(src) < c.min_inliers:
-        return None
+def _ransac(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig) -> tuple[np.ndarray | None, np.ndarray]:
     S, mask = cv2.estimateAffinePartial2D(src, dst, method=cv2.RANSAC, ransacReprojThreshold=c.ransac_px,
                                           maxIters=500, refineIters=10)
     if S is None or not np.all(np.isfinite(S)):
+        return None, np.zeros(len(src), bool)
+    return np.vstack([S, [0.0, 0.0, 1.0]]), mask[:, 0].astype(bool)
+
+
+def _trusted_similarity(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig,
+                        expected: np.ndarray | None = None) -> np.ndarray | None:
+    """RANSAC similarity src → dst (3×3), or None when too few points agree on it.
+
+    With `expected` (the displacement the scene's motion so far predicts at each point), a second
+    consensus among the first one's outliers competes with it: a textured coat that fills half the
+    view gives as many agreeing corners as the wall, and moves with the person's sway. The
+    consensus whose motion is nearer the expected one wins."""
+    if len(src) < c.min_inliers:
         return None
-    if int(mask.sum()) < max(c.min_inliers, c.min_inlier_ratio * len(src)):
+    S, inl = _ransac(src, dst, c)
+    if S is None or int(inl.sum()) < max(c.min_inliers, c.min_inlier_ratio * len(src)):
         return None
-    return np.vstack([S, [0.0, 0.0, 1.0]])
+    if expected is None or (~inl).sum() < c.min_inliers:
+        return S
+    S2, inl2 = _ransac(src[~inl], dst[~inl], c)
+    if S2 is None or inl2.sum() < max(c.min_inliers, COMPETING_SHARE * inl.sum()):
+        return S
+
+    def miss(M):  # how far the model's motion is from the expected one, over all points
+        return float(np.median(np.linalg.norm(apply_h(M, src) - src - expected, axis=1)))
+
+    return S2 if miss(S2) < miss(S) else S
+
+
+def _per_frame(S: np.ndarray, frames: int) -> np.ndarray:
+    """The similarity that, applied `frames` times, gives S (its rotation, log-scale and translation shared out)."""
+    if frames == 1:
+        return S
+    a, b = S[0, 0], S[1, 0]
+    theta, scale = np.arctan2(b, a) / frames, np.hypot(a, b) ** (1.0 / frames)
+    R = scale * np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
+    # t = (I + R + … + R^(n−1)) t1 → t1 = (Σ R^k)⁻¹ t
+    acc = sum(np.linalg.matrix_power(R, k) for k in range(frames))
+    V = np.eye(3)
+    V[:2, :2] = R
+    V[:2, 2] = np.linalg.solve(acc, S[:2, 2])
+    return V
 
 
 class BackgroundMotion:
@@ -107,22 +150,32 @@ class BackgroundMotion:
     def active(self) -> bool:
         return bool(self.chain)
 
-    def reset(self) -> None:
-        self.chain: deque[tuple[np.ndarray, np.ndarray]] = deque(maxlen=self.config.hop)  # (frame, keyframe → frame)
+    def reset(self, forget_motion: bool = False) -> None:
+        """Drop the chain (it starts again at the next keyframe); the scene's last per-frame motion is
+        kept unless `forget_motion` (a new target): it still tells the wall from a coat."""
+        # (frame number, image, keyframe → image)
+        self.chain: deque[tuple[int, np.ndarray, np.ndarray]] = deque(maxlen=self.config.hop)
+        self.frame = 0
+        if forget_motion or not hasattr(self, "velocity"):
+            self.velocity: np.ndarray | None = None  # the scene's last per-frame motion (similarity)
 
     def start(self, key: np.ndarray) -> None:
         self.reset()
-        self.chain.append((key, np.eye(3)))
+        self.chain.append((0, key, np.eye(3)))
 
-    def step(self, src: np.ndarray, grey: np.ndarray) -> np.ndarray | None:
-        """Similarity from `src` to `grey`, or None when the scene gives no trustworthy one."""
+    def step(self, src: np.ndarray, grey: np.ndarray, frames: int = 1) -> np.ndarray | None:
+        """Similarity from `src` to `grey` (`frames` apart), or None when the scene gives no trustworthy one."""
         c = self.config
         pts = cv2.goodFeaturesToTrack(src, c.max_points, c.quality, c.min_distance, blockSize=7)
         if pts is None or len(pts) < c.min_inliers:
             return None
         pts = pts[:, 0].astype(np.float32)
         nxt, ok = _lk_checked(src, grey, pts, c)
-        return _trusted_similarity(pts[ok], nxt[ok], c)
+        expected = None
+        if c.competing and self.velocity is not None:
+            V = np.linalg.matrix_power(self.velocity, frames)
+            expected = apply_h(V, pts[ok]) - pts[ok]
+        return _trusted_similarity(pts[ok], nxt[ok], c, expected)
 
     def update(self, grey: np.ndarray) -> np.ndarray | None:
         """Similarity keyframe → `grey`, or None this frame (the chain then waits at the last good frame).
@@ -130,13 +183,15 @@ class BackgroundMotion:
         Measured from the frame `hop` steps back in the chain when it is there, else from the
         last one: a person standing almost still moves a fraction of a pixel per frame, within
         RANSAC's tolerance, but several pixels over a few frames, where RANSAC rejects them."""
+        self.frame += 1
         sources = list(self.chain)[:1] if len(self.chain) == self.config.hop else []
         sources += list(self.chain)[-1:]
-        for src, M_src in sources:
-            S = self.step(src, grey)
+        for k, src, M_src in sources:
+            S = self.step(src, grey, self.frame - k)
             if S is not None:
                 M = S @ M_src
-                self.chain.append((grey, M))
+                self.chain.append((self.frame, grey, M))
+                self.velocity = _per_frame(S, self.frame - k)
                 return M
         return None
 

@@ -101,22 +101,30 @@ class KeyframeAnchorSource:
 
 
 class SceneMotionSource:
-    """The keyframe pose moved by the scene's similarity motion since the keyframe. A person filling
-    most of the view can out-vote the scene in RANSAC; a wrong consensus jumps far more than a
-    hand-held or servoed camera moves between frames, so a proposal is refused past `gate_px` per
-    frame since the last measurement."""
+    """The pose at the chain's start moved by the scene's similarity motion since then. A person
+    filling most of the view can out-vote the scene in RANSAC; a wrong consensus jumps far more than
+    a hand-held or servoed camera moves between frames, so a proposal is refused past `gate_px` per
+    frame since the last measurement.
+
+    The chain starts at the last aligned or re-anchored frame. A frame the scene cannot measure (a
+    coat sweeps past the lens) does not end it: for up to `patience` such frames in a row the next
+    measurement still comes from the chain's last good frame, so a one-frame guess of the predictor
+    is not carried on. Past that the chain starts again from the predictor's estimate."""
 
     name = "scene_motion"
 
     def __init__(self, aligner: Aligner, config: BackgroundConfig, gate_px: float):
         self.aligner, self.gate_px = aligner, gate_px
+        self.patience = config.hop
         self.motion = BackgroundMotion(config)
 
     def reset(self, state):
-        self.motion.reset()
+        self.motion.reset(forget_motion=True)
+        self.last_aligned: tuple[int, np.ndarray] | None = None
+        self.key = state.keyframe  # (work image, full-res warp) where the chain starts
 
     def propose(self, work, state):
-        key_work, A_key = state.keyframe
+        key_work, A_key = self.key
         if not self.motion.active:
             self.motion.start(key_work)
         M = self.motion.update(work)
@@ -131,13 +139,23 @@ class SceneMotionSource:
 
     def on_aligned(self, work, state):
         self.motion.reset()  # the chain starts again from the new keyframe
+        self.key = state.keyframe
+        # the target is part of the scene: its frame-to-frame motion is the scene's, which tells the
+        # wall's consensus from a coat's once the target is hidden (BackgroundMotion.velocity)
+        A_work = self.aligner.to_work(state.A)
+        if self.last_aligned is not None and self.last_aligned[0] == state.frame_index - 1:
+            self.motion.velocity = A_work @ np.linalg.inv(self.last_aligned[1])
+        self.last_aligned = (state.frame_index, A_work)
 
     def on_measured(self, work, state, proposal):
         if proposal.kind == Kind.ABSOLUTE:
             self.motion.reset()
+            self.key = state.keyframe
 
     def on_predicted(self, work, state):
-        self.motion.reset()  # restart the scene's chain here, from this estimate
+        if state.predict_run > self.patience:  # restart the scene's chain here, from this estimate
+            self.motion.reset()
+            self.key = (work, state.A)
 
 
 class PredictorSource:
