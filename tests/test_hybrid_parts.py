@@ -50,6 +50,21 @@ def test_mode_is_an_enum_that_reads_as_its_string():
     assert tk.confidence == pytest.approx(1.0 - tk.occlusion)
 
 
+def test_confidence_falls_while_the_target_is_hidden_and_returns_when_it_is_aligned_again():
+    img = _frame()
+    tr = make_tracker("hybrid")
+    tr.init(img, ROI)
+    before = tr.update(img).confidence
+    covered = img.copy()
+    covered[150:280, 230:400] = (60, 40, 30)  # a brown coat over the whole target; the wall stays in view
+    hidden = [tr.update(covered) for _ in range(8)]
+    assert all(tk.mode != Mode.ALIGN for tk in hidden)
+    conf = [tk.confidence for tk in hidden]
+    assert conf[0] < before and all(b < a for a, b in zip(conf, conf[1:])) and conf[-1] > 0.0
+    again = tr.update(img)
+    assert again.mode is Mode.ALIGN and again.confidence == pytest.approx(1.0 - again.occlusion)
+
+
 def test_flat_template_is_refused_and_the_tracker_stays_uninitialised():
     img = _frame()
     img[150:280, 230:400] = (135, 180, 235)  # plain sky where the ROI is

@@ -19,6 +19,11 @@ from torch import nn
 from hvs_sim.errors import ConfigError
 from hvs_sim.paths import WEIGHTS_DIR
 
+# what the residual regressor's training frames are, written beside its weights (see learn/data.py, augment.py)
+RESIDUAL_DATA_NOTE = ("targets: the 15 flags interleaved with the procedural textures (learn.data.TRAINING_TARGETS); "
+                      "no photographs (scikit-image's and matplotlib's are reserved for independent evaluation); "
+                      "70 % of samples through shot + read noise and JPEG (learn.augment.SENSOR_SHARE)")
+
 
 def _seed_all(seed: int) -> None:
     random.seed(seed)
@@ -129,7 +134,8 @@ def train_residual(config: ResidualTrainConfig = ResidualTrainConfig(), out_dir:
             "train_samples": int(sum(len(groups[i]["kind"]) for i in train_idx)),
             "val_samples": int(sum(len(groups[i]["kind"]) for i in val_idx)),
             "val_mse": val_mse, "val_mse_without_residual": val_base, "val_by_degradation": kinds,
-            "history": history, "seconds": round(time.time() - t0, 1), "seeds": "simulator seeds 1000+ (benchmarks use 100-999)"}
+            "history": history, "seconds": round(time.time() - t0, 1), "seeds": "simulator seeds 1000+ (benchmarks use 100-999)",
+            "data": RESIDUAL_DATA_NOTE}
     (out_dir / "residual.json").write_text(json.dumps(meta, indent=2))
     return meta
 

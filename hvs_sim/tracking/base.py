@@ -39,7 +39,8 @@ class Track:
     ms: float = 0.0  # wall time of this update
     # how much to trust this pose, in [0, 1]: 0 when lost; for the deep trackers the template's
     # trackability (1 for a textured template, lower for one init was told to accept anyway) times
-    # the visible share (1 − OP_t) when aligned, and a decay with unmeasured frames when predicted
+    # the visible share (1 − OP_t) when aligned; the hybrid's unaligned poses halve it every second
+    # since the last alignment, and halve it again when the predictor alone gives them
     confidence: float = 1.0
 
 
@@ -96,8 +97,10 @@ class Tracker:
         occ = float(np.clip(est.occlusion, 0.0, 1.0)) if _finite(est.occlusion) else 1.0
         score = float(est.score) if _finite(est.score) else 0.0
         conf = est.confidence if ok and est.confidence is not None and _finite(est.confidence) else None
-        if conf is None:
-            conf = 0.0 if mode == Mode.LOST else self.template_confidence * (1.0 - occ)
+        if mode == Mode.LOST:
+            conf = 0.0
+        elif conf is None:
+            conf = self.template_confidence * (1.0 - occ)
         return self._track(Estimate(self.A, mode, occ, score, float(np.clip(conf, 0.0, 1.0))),
                            1e3 * (time.perf_counter() - t0))
 

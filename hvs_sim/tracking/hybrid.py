@@ -56,6 +56,9 @@ from hvs_sim.tracking.sources import (
 from hvs_sim.tracking.trackability import check_trackable
 from hvs_sim.tracking.warp import matrix_to_pose
 
+CONFIDENCE_HALF_LIFE = 30  # frames (1 s at 30 Hz) since the last alignment over which an unaligned pose's confidence halves
+PREDICTED_CONFIDENCE = 0.5  # a predictor's guess, relative to a measurement of the scene's motion
+
 
 @dataclass(frozen=True)
 class HybridConfig:
@@ -218,6 +221,13 @@ class HybridTracker(Tracker):
             return False
         return st.jump_seen(offset, c.background_gate_px) >= c.reacquire_frames
 
+    def _unaligned_confidence(self, kind: Kind) -> float:
+        """Confidence of a pose not aligned on this frame: it halves every CONFIDENCE_HALF_LIFE frames
+        since the last alignment, and a guess of the predictor counts PREDICTED_CONFIDENCE of a
+        measurement of the scene (0 when lost is set by the base class)."""
+        decay = 0.5 ** (self.state.since_aligned / CONFIDENCE_HALF_LIFE)
+        return self.template_confidence * decay * (PREDICTED_CONFIDENCE if kind == Kind.PREDICTED else 1.0)
+
     def _update(self, frame) -> Estimate:
         al, st = self.aligner, self.state
         st.frame_index += 1
@@ -245,5 +255,5 @@ class HybridTracker(Tracker):
                     st.predicted(work, proposal.A, self.sources)
             else:
                 st.measured(work, proposal, self.sources)
-            return Estimate(st.A, proposal.mode, occ, m.score)
+            return Estimate(st.A, proposal.mode, occ, m.score, self._unaligned_confidence(proposal.kind))
         raise AssertionError("the predictor source always proposes")  # pragma: no cover
