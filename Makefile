@@ -1,4 +1,4 @@
-# Two entry points: `make demo` (set up + main demo) and `make test` (set up + tests).
+# Two entry points: `make demo` (set up + main demo) and `make test` (set up + lint + tests).
 VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
@@ -19,4 +19,5 @@ demo: $(STAMP)
 	$(VENV)/bin/hvs-sim demo --out out/demo
 
 test: $(STAMP)
+	$(VENV)/bin/ruff check .
 	$(PY) -m pytest tests

@@ -8,6 +8,9 @@ Single process: the quiet timing run (the tracking benchmark's ms come from two 
 
     python experiments/bench_tracking_core.py --methods hybrid --scenarios walk_by pause partial \
         --seeds 100 101 102 --json experiments/results/hybrid_timing.json
+
+With `--imagery natural` the sequences are hvs_sim.bench.natural's (pictures moved like a hand-held phone,
+through the phone_handheld camera): `--scenarios` are its kinds and `--sources` its pictures.
 """
 
 from __future__ import annotations
@@ -30,12 +33,25 @@ def main() -> None:
     ap.add_argument("--scenarios", nargs="+", default=["clear", "walk_by"])
     ap.add_argument("--seeds", nargs="+", type=int, default=[100, 101])
     ap.add_argument("--json", default="experiments/results/tracking_core.json")
+    ap.add_argument("--imagery", choices=("sim", "natural"), default="sim")
+    ap.add_argument("--sources", nargs="+", default=None, help="natural imagery: pictures (default all)")
     args = ap.parse_args()
+    if args.imagery == "natural":
+        from hvs_sim.bench.natural import NATURAL_SOURCES, make_natural_sequence
+
+        sources = args.sources or list(NATURAL_SOURCES)
+
+        def sequences(scen):
+            return [make_natural_sequence(src, scen, s) for src in sources for s in args.seeds]
+    else:
+        def sequences(scen):
+            return [make_sequence(make_scenario(scen, mount="handheld", seed=s), progress=True) for s in args.seeds]
     torch.set_num_threads(2)
-    out = {"machine": platform.machine(), "torch_threads": torch.get_num_threads(), "seeds": args.seeds, "results": {}}
+    out = {"machine": platform.machine(), "torch_threads": torch.get_num_threads(), "seeds": args.seeds,
+           "imagery": args.imagery, "sources": args.sources, "results": {}}
     pooled = {m: [] for m in args.methods}
     for scen in args.scenarios:
-        seqs = [make_sequence(make_scenario(scen, mount="handheld", seed=s), progress=True) for s in args.seeds]
+        seqs = sequences(scen)
         for method in args.methods:
             res = [run_tracker(method, q) for q in seqs]
             pooled[method] += res

@@ -13,12 +13,12 @@ import cv2
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from hvs_sim.loop import LoopConfig  # noqa: E402
-from hvs_sim.runner import run_episode  # noqa: E402
-from hvs_sim.scene.scenarios import make_scenario  # noqa: E402
+from hvs_sim.loop import LoopConfig
+from hvs_sim.runner import run_episode
+from hvs_sim.scene.scenarios import make_scenario
 
 
 def overlay(r) -> np.ndarray:

@@ -6,7 +6,7 @@ Importing the package is cheap: MuJoCo, dm_control and torch load only when thei
 from hvs_sim.errors import ConfigError, HvsError, InputError, RenderError, StateError, WeightsError
 
 __version__ = "0.1.0"
-__all__ = ["HvsError", "ConfigError", "InputError", "StateError", "RenderError", "WeightsError", "__version__"]
+__all__ = ["ConfigError", "HvsError", "InputError", "RenderError", "StateError", "WeightsError", "__version__"]
 
 
 def _register_envs() -> None:

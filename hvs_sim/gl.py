@@ -28,7 +28,7 @@ def _probe(backend: str) -> bool:
         ctx.make_current()
         ctx.free()
         return True
-    except Exception:  # any failure means "this back-end is not usable here"
+    except Exception:  # noqa: BLE001 - any failure means "this back-end is not usable here"
         return False
 
 

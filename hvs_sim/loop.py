@@ -123,7 +123,7 @@ class ServoLoop:
                     features, mode = track.corners, track.mode
                     if not np.all(np.isfinite(features)):
                         raise FloatingPointError("tracker returned non-finite corners")
-            except Exception as exc:  # a tracker fault must not crash the run: stop the arm and record it
+            except Exception as exc:  # noqa: BLE001 - a tracker fault must not crash the run: stop the arm and record it
                 fault, features, mode = f"{type(exc).__name__}: {exc}", gt_features * np.nan, "fault"
             timings["track"] = 1e3 * (time.perf_counter() - t0)
             t0 = time.perf_counter()

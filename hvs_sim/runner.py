@@ -10,13 +10,14 @@ from hvs_sim.loop import LoopConfig, ServoLoop, StepRecord, summarize_run
 from hvs_sim.scene.scenarios import Scenario
 
 
-def run_episode(scenario: Scenario, tracker: str, config: LoopConfig = LoopConfig(), rrd: str | None = None,
+def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = None, rrd: str | None = None,
                 spawn: bool = False, progress: bool = True, json_path: str | None = None,
                 keep_records: bool = False) -> tuple[dict, list[StepRecord]]:
     """Run and summarise one episode; write an .rrd and/or JSON when paths are given."""
     from tqdm.auto import tqdm
 
     logger = None
+    config = LoopConfig() if config is None else config
     loop = ServoLoop(scenario, tracker, config)
     if rrd or spawn:
         from hvs_sim.viz.rerun_log import RerunLogger, recording

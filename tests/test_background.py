@@ -3,6 +3,7 @@
 import cv2
 import numpy as np
 import pytest
+from test_learned import ROI, photo, shift
 
 from hvs_sim.errors import HvsError
 from hvs_sim.tracking import make_tracker
@@ -10,7 +11,6 @@ from hvs_sim.tracking.background import BackgroundConfig, BackgroundMotion, Keyf
 from hvs_sim.tracking.frames import roi_center
 from hvs_sim.tracking.occlusion import occlusion_fraction
 from hvs_sim.tracking.warp import apply, similarity
-from test_learned import ROI, photo, shift
 
 H, W = 480, 640
 
@@ -84,7 +84,7 @@ def test_background_motion_has_nothing_to_measure_on_a_uniform_view():
     assert bg.update(np.full((240, 320), 90, np.uint8)) is None  # and stays so, without error
 
 
-@pytest.mark.parametrize("bad", [dict(hop=0), dict(keyframes=0), dict(max_fb_px=0.0), dict(min_inliers=2), dict(min_inlier_ratio=0.0), dict(max_points=4)])
+@pytest.mark.parametrize("bad", [{"hop": 0}, {"keyframes": 0}, {"max_fb_px": 0.0}, {"min_inliers": 2}, {"min_inlier_ratio": 0.0}, {"max_points": 4}])
 def test_bad_background_settings_are_clear(bad):
     with pytest.raises(HvsError):
         BackgroundConfig(**bad)

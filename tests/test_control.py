@@ -60,8 +60,8 @@ def test_adaptive_gain_goes_from_lambda0_to_lambda_inf():
     assert ctl.gain(10.0) == pytest.approx(0.5, abs=1e-6)
 
 
-@pytest.mark.parametrize("kwargs", [dict(gain=0), dict(gain=-1.0), dict(gain_inf=3.0), dict(interaction="both"),
-                                    dict(depth="lidar"), dict(dofs=("vx", "roll")), dict(predict_gain=2.0)])
+@pytest.mark.parametrize("kwargs", [{"gain": 0}, {"gain": -1.0}, {"gain_inf": 3.0}, {"interaction": "both"},
+                                    {"depth": "lidar"}, {"dofs": ("vx", "roll")}, {"predict_gain": 2.0}])
 def test_bad_controller_settings_raise(kwargs):
     with pytest.raises(HvsError):
         IBVSConfig(**kwargs)

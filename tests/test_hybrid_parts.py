@@ -3,6 +3,8 @@ OP_t, the residual's verification, verified re-acquisition."""
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 import torch
@@ -60,7 +62,7 @@ def test_confidence_falls_while_the_target_is_hidden_and_returns_when_it_is_alig
     hidden = [tr.update(covered) for _ in range(8)]
     assert all(tk.mode != Mode.ALIGN for tk in hidden)
     conf = [tk.confidence for tk in hidden]
-    assert conf[0] < before and all(b < a for a, b in zip(conf, conf[1:])) and conf[-1] > 0.0
+    assert conf[0] < before and all(b < a for a, b in itertools.pairwise(conf)) and conf[-1] > 0.0
     again = tr.update(img)
     assert again.mode is Mode.ALIGN and again.confidence == pytest.approx(1.0 - again.occlusion)
 

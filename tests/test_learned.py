@@ -96,7 +96,7 @@ def test_full_occlusion_of_a_moving_target_keeps_the_prediction_close(predictor,
     for k in range(1, 16):
         tk = tr.update(shift(img, *(k * v)))
         assert tk.mode == "align"
-    x, y, w, h = ROI
+    _x, _y, w, h = ROI
     errs = []
     for k in range(16, 31):  # 15 frames (0.5 s) with the target fully hidden
         f = shift(img, *(k * v))

@@ -44,7 +44,7 @@ def test_tracker_fault_stops_the_arm_and_is_recorded():
     assert summary["fault_steps"] == 3 and "RuntimeError: boom" in summary["faults"]
 
 
-@pytest.mark.parametrize("kwargs", [dict(steps=0), dict(steps=10**7), dict(steps=2.5)])
+@pytest.mark.parametrize("kwargs", [{"steps": 0}, {"steps": 10**7}, {"steps": 2.5}])
 def test_bad_loop_settings(kwargs):
     with pytest.raises(HvsError, match="steps"):
         LoopConfig(**kwargs)
@@ -90,10 +90,10 @@ def test_env_checker_passes_without_warnings():
 def test_env_same_seed_same_rollout_and_reward_improves_when_servoing():
     def rollout(seed):
         env = gym.make("hvs_sim/VisualServo-v0")
-        obs, info = env.reset(seed=seed)
+        obs, _ = env.reset(seed=seed)
         frames, rewards = [obs["image"]], []
         for _ in range(5):
-            obs, rew, term, trunc, info = env.step(np.array([0.2, -0.1, 0.1, 0, 0, 0.1], np.float32))
+            obs, rew, _term, _trunc, _info = env.step(np.array([0.2, -0.1, 0.1, 0, 0, 0.1], np.float32))
             frames.append(obs["image"])
             rewards.append(rew)
         return np.stack(frames), rewards

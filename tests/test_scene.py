@@ -63,7 +63,7 @@ def test_camera_pose_is_opencv_and_looks_at_target():
 
 
 def test_walk_by_peaks_above_90_percent():
-    sc, occ = occlusion_profile("walk_by")
+    _sc, occ = occlusion_profile("walk_by")
     assert occ.max() >= 0.9
     assert occ[0] == 0.0 and occ[-1] == 0.0  # the person comes and goes
 
@@ -89,7 +89,7 @@ def test_partial_hovers_between_25_and_70_percent():
 
 
 def test_two_people_both_occlude():
-    sc, occ = occlusion_profile("two_people")
+    _sc, occ = occlusion_profile("two_people")
     high = occ > 0.5
     assert high.any()
     # two separate occlusion episodes
@@ -115,16 +115,16 @@ def test_arm_holds_its_start_pose_without_commands():
 
 @pytest.mark.parametrize(
     "kwargs,needle",
-    [(dict(name="nope"), "walk_by"), (dict(name="clear", mount="tripod"), "handheld"),
-     (dict(name="clear", target_flag="moon"), "star_field"), (dict(name="clear", seed=1.5), "seed"),
-     (dict(name="clear", seed="3"), "seed")],
+    [({"name": "nope"}, "walk_by"), ({"name": "clear", "mount": "tripod"}, "handheld"),
+     ({"name": "clear", "target_flag": "moon"}, "star_field"), ({"name": "clear", "seed": 1.5}, "seed"),
+     ({"name": "clear", "seed": "3"}, "seed")],
 )
 def test_bad_scenario_input_raises_listing_what_is_accepted(kwargs, needle):
     with pytest.raises(HvsError, match=needle):
         make_scenario(**kwargs)
 
 
-@pytest.mark.parametrize("cam", [dict(width=0), dict(height=100000), dict(fovy=179.0), dict(fovy=2.0), dict(width=640.5)])
+@pytest.mark.parametrize("cam", [{"width": 0}, {"height": 100000}, {"fovy": 179.0}, {"fovy": 2.0}, {"width": 640.5}])
 def test_bad_camera_config(cam):
     with pytest.raises(ConfigError):
         CameraConfig(**cam)

@@ -113,8 +113,8 @@ def servo_table(summary: dict, config: ServoBenchConfig) -> str:
     lines = []
     for s, per in summary["results"].items():
         lines += [f"## {s} ({config.episodes} episodes per tracker, success = converged and final error ≤ {config.success_px} px)", "",
-                  "| tracker | success | converged | median time to converge (s) | median final error (px) | max final error (px) "
-                  "| median max error in occlusion (px) | lost steps | predict steps | steps/s |",
+                  ("| tracker | success | converged | median time to converge (s) | median final error (px) | max final error (px) "
+                  "| median max error in occlusion (px) | lost steps | predict steps | steps/s |"),
                   "|---|---|---|---|---|---|---|---|---|---|"]
         for t, r in per.items():
             conv_t = "–" if r["median_seconds_to_converge"] is None else f"{r['median_seconds_to_converge']:.2f}"

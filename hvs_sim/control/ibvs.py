@@ -14,10 +14,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from hvs_sim.errors import ConfigError, InputError, choice_error
+from hvs_sim.validate import check_number
 
 DOF_NAMES = ("vx", "vy", "vz", "wx", "wy", "wz")
 INTERACTION_AT = ("current", "desired", "mean")
 DEPTH_SOURCES = ("scale", "true")
+
+
+MIN_DESIRED_SPREAD_PX = 1.0  # desired points closer together than this make L singular
 
 
 def interaction_matrix(xy: np.ndarray, Z: np.ndarray) -> np.ndarray:
@@ -48,20 +52,18 @@ class IBVSConfig:
     def __post_init__(self):
         if not (isinstance(self.gain, (int, float)) and self.gain > 0 and math.isfinite(self.gain)):
             raise ConfigError(f"gain must be a finite number > 0, got {self.gain!r}")
-        if self.gain_inf is not None and not 0 < self.gain_inf < self.gain:
-            raise ConfigError(f"gain_inf must be in (0, gain={self.gain}), got {self.gain_inf}")
-        if self.gain_slope <= 0:
-            raise ConfigError(f"gain_slope must be > 0, got {self.gain_slope}")
+        if self.gain_inf is not None:
+            check_number("gain_inf", self.gain_inf, 0, self.gain, lo_open=True, hi_open=True)
+        check_number("gain_slope", self.gain_slope, 0, lo_open=True)
         if self.interaction not in INTERACTION_AT:
             raise choice_error("interaction matrix evaluation", self.interaction, INTERACTION_AT)
         if self.depth not in DEPTH_SOURCES:
             raise choice_error("depth source", self.depth, DEPTH_SOURCES)
         if not self.dofs or any(d not in DOF_NAMES for d in self.dofs):
             raise ConfigError(f"dofs {self.dofs} invalid; accepted: a subset of {', '.join(DOF_NAMES)}")
-        if not 0 <= self.predict_gain <= 1:
-            raise ConfigError(f"predict_gain must be in [0, 1], got {self.predict_gain}")
-        if self.max_linear <= 0 or self.max_angular <= 0:
-            raise ConfigError("max_linear and max_angular must be > 0")
+        check_number("predict_gain", self.predict_gain, 0, 1)
+        check_number("max_linear (m/s)", self.max_linear, 0, lo_open=True)
+        check_number("max_angular (rad/s)", self.max_angular, 0, lo_open=True)
 
 
 @dataclass
@@ -77,9 +79,19 @@ class IBVSController:
     """Point-feature IBVS to fixed desired features s* (pixels), given intrinsics K."""
 
     def __init__(self, K: np.ndarray, desired_px: np.ndarray, desired_depth: float, config: IBVSConfig = IBVSConfig()):
-        self.K = np.asarray(K, float)
+        try:
+            self.K = np.asarray(K, float)
+            self.desired_px = np.asarray(desired_px, float).reshape(-1, 2)
+        except (TypeError, ValueError):
+            raise InputError("K must be a 3×3 intrinsic matrix and desired_px N×2 pixels (N >= 3)") from None
+        if self.K.shape != (3, 3) or not np.isfinite(self.K).all() or self.K[0, 0] <= 0 or self.K[1, 1] <= 0:
+            raise InputError(f"K must be a finite 3×3 intrinsic matrix with fx, fy > 0, got {self.K.tolist()}")
+        if len(self.desired_px) < 3 or not np.isfinite(self.desired_px).all():
+            raise InputError(f"desired_px must be at least 3 finite points (N×2 pixels), got {len(self.desired_px)}")
+        if np.ptp(self.desired_px, axis=0).max() < MIN_DESIRED_SPREAD_PX:
+            raise InputError(f"desired_px points coincide (spread < {MIN_DESIRED_SPREAD_PX} px): the interaction matrix "
+                             "would be singular; give distinct target corners")
         self.config = config
-        self.desired_px = np.asarray(desired_px, float).reshape(-1, 2)
         if not (np.isfinite(desired_depth) and desired_depth > 0):
             raise ConfigError(f"desired depth must be > 0 m, got {desired_depth}")
         self.desired_depth = float(desired_depth)

@@ -10,6 +10,7 @@ Terminated when that error stays below `converge_px` for `hold_steps` steps.
 from __future__ import annotations
 
 import dataclasses
+from typing import ClassVar
 
 import gymnasium as gym
 import numpy as np
@@ -24,7 +25,7 @@ ACTION_TYPES = ("twist", "joint")
 
 
 class VisualServoEnv(gym.Env):
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 30}
+    metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "render_fps": 30}
 
     def __init__(self, scenario: str = "clear", render_mode: str | None = None, action_type: str = "twist",
                  width: int = 160, height: int = 120, max_offset: float = 0.05, max_roll: float = 0.15,

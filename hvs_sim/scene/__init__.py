@@ -6,5 +6,10 @@ configure_gl()  # before anything imports dm_control, which fixes its GL back-en
 
 
 from hvs_sim.scene.scenarios import (  # noqa: F401
-    MOUNTS, SCENARIO_NAMES, CameraConfig, OccluderPlan, Scenario, make_scenario,
+    MOUNTS,
+    SCENARIO_NAMES,
+    CameraConfig,
+    OccluderPlan,
+    Scenario,
+    make_scenario,
 )

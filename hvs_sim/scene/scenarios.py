@@ -169,27 +169,27 @@ class Scenario:
 
     @property
     def n_frames(self) -> int:
-        return int(round(self.duration * self.fps))
+        return round(self.duration * self.fps)
 
 
 _PRESETS: dict[str, dict] = {
-    "clear": dict(occluders=()),
-    "walk_by": dict(occluders=(OccluderPlan("walk", t_cross=3.0, speed=0.45),)),
-    "pause": dict(occluders=(OccluderPlan("pause", t_cross=3.0, speed=0.45, pause_s=1.5),), duration=7.0),
-    "partial": dict(occluders=(OccluderPlan("hover", t_cross=1.0, cover=(0.32, 0.62), direction=-1),)),
-    "two_people": dict(
-        occluders=(
+    "clear": {"occluders": ()},
+    "walk_by": {"occluders": (OccluderPlan("walk", t_cross=3.0, speed=0.45),)},
+    "pause": {"occluders": (OccluderPlan("pause", t_cross=3.0, speed=0.45, pause_s=1.5),), "duration": 7.0},
+    "partial": {"occluders": (OccluderPlan("hover", t_cross=1.0, cover=(0.32, 0.62), direction=-1),)},
+    "two_people": {
+        "occluders": (
             OccluderPlan("walk", t_cross=2.5, speed=0.5, depth=0.5, direction=1),
             OccluderPlan("walk", t_cross=4.0, speed=0.4, depth=0.65, direction=-1),
         ),
-        duration=6.5,
-    ),
-    "moving_target": dict(occluders=(OccluderPlan("walk", t_cross=4.0, speed=0.45),), wall_motion=(0.03, 0.015, 0.2)),
+        "duration": 6.5,
+    },
+    "moving_target": {"occluders": (OccluderPlan("walk", t_cross=4.0, speed=0.45),), "wall_motion": (0.03, 0.015, 0.2)},
     # natural imagery: a printed poster among natural textures; a photo among prints, with a pause in front
-    "poster_walk_by": dict(occluders=(OccluderPlan("walk", t_cross=3.0, speed=0.45),), target_texture="poster",
-                           wall="natural"),
-    "photo_pause": dict(occluders=(OccluderPlan("pause", t_cross=3.0, speed=0.45, pause_s=1.5),), duration=7.0,
-                        target_texture="photo_flower", wall="printed"),
+    "poster_walk_by": {"occluders": (OccluderPlan("walk", t_cross=3.0, speed=0.45),), "target_texture": "poster",
+                           "wall": "natural"},
+    "photo_pause": {"occluders": (OccluderPlan("pause", t_cross=3.0, speed=0.45, pause_s=1.5),), "duration": 7.0,
+                        "target_texture": "photo_flower", "wall": "printed"},
 }
 SCENARIO_NAMES: tuple[str, ...] = tuple(_PRESETS)
 
@@ -252,7 +252,7 @@ class ShakeModel:
     phase: np.ndarray  # (6, n)
 
     @staticmethod
-    def sample(seed: int, scale: float = 1.0) -> "ShakeModel":
+    def sample(seed: int, scale: float = 1.0) -> ShakeModel:
         rng = np.random.default_rng([seed, 7])
         drift_f = rng.uniform(0.08, 0.3, 3)
         tremor_f = rng.uniform(1.0, 10.0, 5)

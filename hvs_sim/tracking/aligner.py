@@ -28,6 +28,7 @@ from hvs_sim.tracking.nets.vgg import vgg16_pool2
 from hvs_sim.tracking.occlusion import TAU_PIX, aligned_patch, occlusion_fraction
 from hvs_sim.tracking.trackability import MIN_TRACKABILITY
 from hvs_sim.tracking.warp import apply, matrix_to_pose, pose_to_matrix
+from hvs_sim.validate import check_number
 
 MIN_CROP = 16  # work px: a crop smaller than this on a side means the target is (nearly) off the frame
 MIN_VALID = 0.3  # share of template points that must land inside the crop for an alignment to count
@@ -81,6 +82,12 @@ class DeepLKConfig:
             raise ConfigError(f"scale must be in [0.2, 1.0], got {self.scale}")
         if not 0 < self.match_threshold < 1:
             raise ConfigError(f"match_threshold must be in (0, 1), got {self.match_threshold}")
+        check_number("tau_pix", self.tau_pix, 0, 255, lo_open=True)
+        check_number("margin", self.margin, 0, integer=True)
+        check_number("reinit_px", self.reinit_px, 0, lo_open=True)
+        check_number("max_rotation_step", self.max_rotation_step, 0, lo_open=True)
+        check_number("max_scale_step", self.max_scale_step, 0, lo_open=True)
+        check_number("min_trackability", self.min_trackability, 0)
 
 
 @dataclass

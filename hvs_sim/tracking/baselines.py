@@ -10,6 +10,7 @@ from hvs_sim.tracking.base import Estimate, Tracker
 from hvs_sim.tracking.frames import to_grey
 from hvs_sim.tracking.occlusion import TAU_PIX, aligned_patch, occlusion_fraction
 from hvs_sim.tracking.warp import project_similarity
+from hvs_sim.validate import check_number
 
 
 class _GreyTemplate(Tracker):
@@ -32,8 +33,9 @@ class SiftTracker(_GreyTemplate):
 
     def __init__(self, ratio: float = 0.75, min_inliers: int = 6, ransac_px: float = 3.0):
         super().__init__()
-        if not 0 < ratio < 1:
-            raise ConfigError(f"ratio must be in (0, 1), got {ratio}")
+        check_number("sift ratio", ratio, 0, 1, lo_open=True, hi_open=True)
+        check_number("sift min_inliers", min_inliers, 3, integer=True)  # a similarity needs 2 points, RANSAC a spare
+        check_number("sift ransac_px", ransac_px, 0, lo_open=True)
         self.ratio, self.min_inliers, self.ransac_px = ratio, min_inliers, ransac_px
         self.sift = cv2.SIFT_create()
         self.matcher = cv2.BFMatcher(cv2.NORM_L2)
@@ -72,8 +74,11 @@ class EccTracker(_GreyTemplate):
 
     def __init__(self, iterations: int = 50, eps: float = 1e-4, gauss: int = 5):
         super().__init__()
-        if iterations < 1:
-            raise ConfigError(f"iterations must be >= 1, got {iterations}")
+        check_number("ecc iterations", iterations, 1, integer=True)
+        check_number("ecc eps", eps, 0, lo_open=True)
+        check_number("ecc gauss", gauss, 1, integer=True)
+        if gauss % 2 == 0:  # OpenCV's Gaussian pre-filter needs an odd size; an even one fails on every frame
+            raise ConfigError(f"ecc gauss (Gaussian filter size) must be an odd integer >= 1, got {gauss}")
         self.criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, iterations, eps)
         self.gauss = gauss
 

@@ -25,6 +25,10 @@ def check_frame(frame, expected_shape: tuple[int, int] | None = None) -> np.ndar
             raise InputError("frame contains NaN or inf; accepted: uint8 RGB, or float RGB with finite values in [0, 255]")
         if frame.min() < 0 or frame.max() > 255:
             raise InputError(f"float frame values must lie in [0, 255], got [{frame.min():.3g}, {frame.max():.3g}]")
+        if frame.max() <= 1.0 and np.any(frame != np.round(frame)):
+            # read as [0, 255] it would be a black frame; which scale was meant cannot be told, so say so
+            raise InputError("float frame values lie in [0, 1]; hvs_sim reads float frames on the 0–255 scale: "
+                             "pass (frame * 255) or a uint8 image")
         out = np.round(frame).astype(np.uint8)
     else:
         raise InputError(f"frame dtype must be uint8 (or float32/float64 in [0, 255]), got {frame.dtype}")

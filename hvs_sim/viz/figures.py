@@ -7,10 +7,10 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from hvs_sim.tracking.registry import TRACKERS  # noqa: E402
+from hvs_sim.tracking.registry import TRACKERS
 
 # one colour per tracker name, from the registry (distinct across methods and variants)
 COLORS = {"ground_truth": "black", **{name: spec.colour for name, spec in TRACKERS.items()}}

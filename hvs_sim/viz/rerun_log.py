@@ -74,7 +74,7 @@ class RerunLogger:
             return
         try:
             fn(*args)
-        except Exception as exc:  # logging must never stop the loop
+        except Exception as exc:  # noqa: BLE001 - logging must never stop the loop
             self.failed = True
             log.warning("rerun logging disabled after error: %s", exc)
 
@@ -104,7 +104,7 @@ class RerunLogger:
         rec.log("world/trajectory", rr.LineStrips3D([np.array(self.path)], colors=[80, 140, 255]))
         if r.frame is not None:
             rec.log("world/camera/image", rr.Image(r.frame).compress(jpeg_quality=85))
-        closed = lambda p: [np.vstack([p, p[:1]])]  # noqa: E731
+        closed = lambda p: [np.vstack([p, p[:1]])]
         if np.all(np.isfinite(r.features)):
             rec.log("world/camera/image/tracked", rr.LineStrips2D(closed(r.features), colors=[0, 255, 0]))
         rec.log("world/camera/image/ground_truth", rr.LineStrips2D(closed(r.gt_features), colors=[255, 255, 255]))

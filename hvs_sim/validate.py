@@ -1,0 +1,26 @@
+"""Checks for numeric settings: one message format naming the setting and the accepted range."""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+from hvs_sim.errors import ConfigError
+
+
+def check_number(name: str, value, lo: float | None = None, hi: float | None = None, *, lo_open: bool = False,
+                 hi_open: bool = False, integer: bool = False) -> None:
+    """Raise ConfigError unless `value` is a finite real (an int when `integer`) within [lo, hi]
+    (open at an end when asked). NaN, inf, bools and strings are refused."""
+    kind = "an integer" if integer else "a finite number"
+    ok_type = isinstance(value, numbers.Integral if integer else numbers.Real) and not isinstance(value, bool)
+    ok = ok_type and math.isfinite(float(value))
+    if ok and lo is not None:
+        ok = value > lo if lo_open else value >= lo
+    if ok and hi is not None:
+        ok = value < hi if hi_open else value <= hi
+    if not ok:
+        left = "(" if lo_open else "["
+        right = ")" if hi_open else "]"
+        rng = f" in {left}{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}{right}"
+        raise ConfigError(f"{name} must be {kind}{rng if (lo is not None or hi is not None) else ''}, got {value!r}")
