@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 from pathlib import Path
 
 from hvs_sim.errors import ConfigError, HvsError
+from hvs_sim.outputs import check_output_file, fresh_out_dir, prepare_out_dir
 
 DEFAULT_TRACKER = "hybrid"
 
@@ -35,15 +37,16 @@ def _scenario_from_args(args):
             overrides[key] = getattr(args, key)
     if getattr(args, "shadows", False):
         overrides["shadows"] = True
-    return make_scenario(args.scenario, mount=args.mount, seed=args.seed, **overrides)
+    return make_scenario(args.scenario, mount=getattr(args, "mount", "arm"), seed=args.seed, **overrides)
 
 
-def _add_scene_args(p: argparse.ArgumentParser, default_mount: str) -> None:
+def _add_scene_args(p: argparse.ArgumentParser, mount: bool) -> None:
     from hvs_sim.camera_model import SENSOR_NAMES
     from hvs_sim.scene.scenarios import PEOPLE_STYLES, SCENARIO_NAMES, WALL_SETS
 
     p.add_argument("--scenario", default="walk_by", help=f"one of: {', '.join(SCENARIO_NAMES)} (hvs-sim scenes --list)")
-    p.add_argument("--mount", default=default_mount, help="handheld or arm")
+    if mount:  # `run` is closed-loop: its camera is on the arm, so it offers no --mount
+        p.add_argument("--mount", default="handheld", choices=("handheld", "arm"), help="where the camera is")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--camera", default="ideal", choices=SENSOR_NAMES,
                    help="camera model: exposure, blur, noise, JPEG, distortion (default: ideal = clean renders)")
@@ -66,8 +69,10 @@ def cmd_scene(args) -> int:
 
     from hvs_sim.render.sequence import iterate_sequence, write_sequence
 
+    if args.frames is not None and args.frames < 1:
+        raise ConfigError(f"--frames must be >= 1, got {args.frames}")
     scenario = _scenario_from_args(args)
-    out = Path(args.out)
+    out = fresh_out_dir(args.out, args.overwrite, SCENE_OUTPUTS)
     meta = write_sequence(scenario, out, fmt=args.format, n_frames=args.frames)
     # a preview: the first frame with the ground-truth outline and centre
     frame, gt = next(iterate_sequence(scenario, 1))
@@ -83,7 +88,10 @@ def cmd_run(args) -> int:
     from hvs_sim.loop import LoopConfig
     from hvs_sim.runner import run_episode
 
-    args.mount = "arm"
+    if args.steps < 1:
+        raise ConfigError(f"--steps must be >= 1, got {args.steps}")
+    for flag, path in (("--json", args.json), ("--rrd", args.rrd)):
+        check_output_file(path, flag)
     scenario = _scenario_from_args(args)
     config = LoopConfig(steps=args.steps)
     summary, _ = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,
@@ -101,8 +109,7 @@ def cmd_run(args) -> int:
 def cmd_train(args) -> int:
     from hvs_sim.learn import train
 
-    out = Path(args.out) if args.out else None
-    kwargs = {"out_dir": out} if out else {}
+    kwargs = {"out_dir": prepare_out_dir(args.out)}
     if args.what == "residual":
         cfg = train.ResidualTrainConfig(**{k: v for k, v in (("sequences", args.sequences), ("frames_per_sequence", args.frames),
                                                               ("epochs", args.epochs), ("seed", args.seed)) if v is not None})
@@ -131,9 +138,12 @@ def _provenance(argv: list[str]) -> dict:
 def _check_bench_options(args) -> None:
     """Refuse options that do not apply to the chosen benchmark, rather than ignoring them."""
     if args.what == "servo":
-        for flag, value in (("--imagery natural", args.imagery == "natural"), ("--sources", args.sources)):
+        for flag, value in (("--imagery natural", args.imagery == "natural"), ("--sources", args.sources),
+                            ("--mounts", args.mounts)):
             if value:
-                raise ConfigError(f"{flag} applies to `bench track` only")
+                raise ConfigError(f"{flag} applies to `bench track` only (the servo benchmark's camera is on the arm)")
+    elif args.episodes is not None:
+        raise ConfigError("--episodes applies to `bench servo` only")
     elif args.imagery == "natural":
         for flag, value in (("--mounts", args.mounts), ("--people", args.people)):
             if value:
@@ -154,9 +164,11 @@ def cmd_bench_natural(args) -> int:
     )
     from hvs_sim.bench.track import METHODS
 
-    if args.smoke:
+    if args.smoke:  # small defaults; what the user names is honoured
         cfg = smoke_config(tuple(args.methods or METHODS), camera=args.camera, workers=args.workers)
-        print(f"SMOKE RUN ({cfg.sources[0]}, walk_by, {cfg.frames} frames): checks the pipeline, NOT a result")
+        cfg = dataclasses.replace(cfg, **_given(args, ("sources", "sources"), ("scenarios", "kinds"), ("seeds", "seeds")))
+        print(f"SMOKE RUN ({', '.join(cfg.sources)}; {', '.join(cfg.kinds)}; {cfg.frames} frames): checks the pipeline, "
+              "NOT a result")
     else:
         cfg = NaturalBenchConfig(methods=tuple(args.methods or NaturalBenchConfig.methods),
                                  sources=tuple(args.sources or NATURAL_SOURCES), kinds=tuple(args.scenarios or NATURAL_KINDS),
@@ -176,8 +188,13 @@ def cmd_bench_natural(args) -> int:
     return 0
 
 
+BENCH_OUTPUTS = ("summary.json", "table.md", "frames.csv", "*.png")  # what a benchmark writes in --out
+SCENE_OUTPUTS = ("frames.mp4", "frames/*.png", "ground_truth.csv", "ground_truth.npz", "scenario.json", "preview.png")
+
+
 def cmd_bench(args) -> int:
     _check_bench_options(args)
+    fresh_out_dir(args.out, args.overwrite, BENCH_OUTPUTS)
     if args.what == "track" and args.imagery == "natural":
         status = cmd_bench_natural(args)
     else:
@@ -190,17 +207,25 @@ def cmd_bench(args) -> int:
     return status
 
 
+SMOKE_NOTE = "SMOKE RUN: checks that the pipeline runs end to end; the figures it prints are NOT a result"
+
+
+def _given(args, *names) -> dict:
+    """The bench options the user gave, as config fields (tuples)."""
+    return {field: tuple(getattr(args, opt)) for opt, field in names if getattr(args, opt)}
+
+
 def _cmd_bench_sim(args) -> int:
     args.people = args.people or "textured"
     if args.what == "track":
         from hvs_sim.bench.track import METHODS, TrackBenchConfig, run_track_bench
 
-        if args.smoke:
-            cfg = TrackBenchConfig(methods=METHODS, scenarios=("walk_by",), mounts=("handheld",), seeds=(100,), frames=40,
-                                   workers=args.workers, camera=args.camera, people=args.people)
-        else:
-            cfg = TrackBenchConfig(workers=args.workers, camera=args.camera, people=args.people, **{k: tuple(v) for k, v in (("methods", args.methods),
-                                   ("scenarios", args.scenarios), ("mounts", args.mounts), ("seeds", args.seeds)) if v})
+        given = _given(args, ("methods", "methods"), ("scenarios", "scenarios"), ("mounts", "mounts"), ("seeds", "seeds"))
+        if args.smoke:  # small defaults; what the user names is honoured
+            print(SMOKE_NOTE)
+            given = {"methods": METHODS, "scenarios": ("walk_by",), "mounts": ("handheld",), "seeds": (100,), **given}
+        cfg = TrackBenchConfig(workers=args.workers, camera=args.camera, people=args.people,
+                               frames=40 if args.smoke else None, **given)
         summary = run_track_bench(cfg, Path(args.out))
         for m, v in summary["occlusion_scenarios"].items():
             a = v["all"]
@@ -212,16 +237,22 @@ def _cmd_bench_sim(args) -> int:
     else:
         from hvs_sim.bench.servo import ServoBenchConfig, run_servo_bench
 
+        given = _given(args, ("methods", "trackers"), ("scenarios", "scenarios"), ("seeds", "seeds"))
+        if args.episodes is not None:
+            if args.seeds:
+                raise ConfigError("give --episodes or --seeds for the servo benchmark, not both")
+            given["episodes"] = args.episodes
         if args.smoke:
-            cfg = ServoBenchConfig(trackers=("ground_truth", "hybrid"), scenarios=("walk_by",), episodes=1, steps=30,
-                                   workers=args.workers, camera=args.camera, people=args.people)
-        else:
-            cfg = ServoBenchConfig(workers=args.workers, episodes=args.episodes, camera=args.camera, people=args.people,
-                                   **{k: tuple(v) for k, v in (("trackers", args.methods), ("scenarios", args.scenarios)) if v})
+            print(SMOKE_NOTE)
+            given = {"trackers": ("ground_truth", "hybrid"), "scenarios": ("walk_by",), "episodes": 1, **given}
+        cfg = ServoBenchConfig(workers=args.workers, camera=args.camera, people=args.people,
+                               steps=30 if args.smoke else None, **given)
         summary = run_servo_bench(cfg, Path(args.out))
         for s, per in summary["results"].items():
             for t, r in per.items():
                 print(f"{s:8s} {t:18s} success {100 * r['success_rate']:5.1f}%  median final {r['median_final_error_px']:.2f} px")
+    if args.smoke:
+        print(SMOKE_NOTE)
     return 0
 
 
@@ -260,18 +291,22 @@ def cmd_demo(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from hvs_sim import __version__
+
     parser = argparse.ArgumentParser(prog="hvs-sim", description="Occlusion-robust visual servoing simulator")
+    parser.add_argument("--version", action="version", version=f"hvs-sim {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("scene", help="render a scenario open-loop to frames + ground truth")
-    _add_scene_args(p, default_mount="handheld")
+    _add_scene_args(p, mount=True)
     p.add_argument("--out", default="out/scene")
     p.add_argument("--format", choices=("mp4", "png"), default="mp4")
     p.add_argument("--frames", type=int, default=None, help="number of frames (default: the scenario's duration)")
     p.add_argument("--shadows", action="store_true", help="cast shadows (about 5x slower on a CPU)")
+    p.add_argument("--overwrite", action="store_true", help="replace earlier results in a non-empty --out")
     p.set_defaults(func=cmd_scene)
 
     p = sub.add_parser("run", help="closed-loop servo run: render -> track -> IBVS -> arm")
-    _add_scene_args(p, default_mount="arm")
+    _add_scene_args(p, mount=False)
     from hvs_sim.tracking import TRACKER_NAMES
 
     loop_trackers = ("ground_truth", *TRACKER_NAMES)  # as hvs_sim.loop.LOOP_TRACKERS, without importing MuJoCo for --help
@@ -290,7 +325,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--frames", type=int, default=None, help="residual: frames per sequence; gru: track length")
     p.add_argument("--epochs", type=int, default=None)
     p.add_argument("--seed", type=int, default=None)
-    p.add_argument("--out", default=None, help="output folder (default: assets/weights, what the package ships)")
+    p.add_argument("--out", default="out/weights",
+                   help="output folder (default out/weights; --out assets/weights replaces the weights the package ships)")
     p.set_defaults(func=cmd_train)
 
     from hvs_sim.camera_model import REALISTIC_PRESET, SENSOR_NAMES
@@ -299,7 +335,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("bench", help="benchmarks: tracking accuracy (track) or closed-loop convergence (servo)")
     p.add_argument("what", choices=("track", "servo"))
     p.add_argument("--out", default=None, help="output folder (default: out/bench_<what>)")
-    p.add_argument("--smoke", action="store_true", help="a tiny version that runs in about a minute")
+    p.add_argument("--smoke", action="store_true", help="a tiny version that runs in about a minute (not a result)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace earlier results (summary.json, table.md, frames.csv, figures) in a non-empty --out")
     p.add_argument("--workers", type=int, default=1, help="processes (episodes and sequences are independent)")
     p.add_argument("--methods", nargs="+", default=None, help="trackers to compare")
     p.add_argument("--imagery", default="sim", choices=("sim", "natural"),
@@ -310,8 +348,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--sources", nargs="+", default=None,
                    help="--imagery natural only: pictures (default all of hvs_sim.bench.natural.NATURAL_SOURCES)")
     p.add_argument("--mounts", nargs="+", default=None, help="track only, sim imagery: handheld and/or arm")
-    p.add_argument("--seeds", nargs="+", type=int, default=None, help="track only (natural default: 500 501)")
-    p.add_argument("--episodes", type=int, default=10, help="servo only: episodes per scenario and tracker")
+    p.add_argument("--seeds", nargs="+", type=int, default=None,
+                   help="sequence seeds (track; default 100 101 102, natural 500 501) or episode seeds (servo)")
+    p.add_argument("--episodes", type=int, default=None,
+                   help="servo only: episodes per scenario and tracker, seeds 200, 201, … (default 10)")
     p.add_argument("--camera", default=REALISTIC_PRESET, choices=SENSOR_NAMES,
                    help=f"camera model of every sequence/episode (default {REALISTIC_PRESET}; ideal = clean renders)")
     p.add_argument("--people", default=None, choices=PEOPLE_STYLES,

@@ -15,7 +15,7 @@ import numpy as np
 from hvs_sim.camera_model import undistort_points
 from hvs_sim.control.arm import ArmLimits, camera_twist_to_world, twist_to_joint_velocities
 from hvs_sim.control.ibvs import IBVSConfig, IBVSController
-from hvs_sim.errors import ConfigError, choice_error
+from hvs_sim.errors import ConfigError, StateError, choice_error
 from hvs_sim.render.camera import CameraPose
 from hvs_sim.render.renderer import GroundTruth, Renderer
 from hvs_sim.scene.scenarios import Scenario
@@ -115,11 +115,17 @@ class ServoLoop:
             gt_features = r.transfer(flag0, gt.corners, roi0)
             fault, track = None, None
             t0 = time.perf_counter()
+            if step == 0 and self.tracker is not None:
+                try:  # without a template there is nothing to servo on: a failed init ends the run
+                    init_track = self.tracker.init(frame, roi)
+                except Exception as exc:  # any cause: the run cannot go on, and says why
+                    raise StateError(f"tracker {self.tracker_name!r} could not start on the first frame (ROI {roi}): "
+                                     f"{exc}") from exc
             try:
                 if self.tracker is None:
                     features, mode = gt_features, "align"
                 else:
-                    track = self.tracker.init(frame, roi) if step == 0 else self.tracker.update(frame)
+                    track = init_track if step == 0 else self.tracker.update(frame)
                     features, mode = track.corners, track.mode
                     if not np.all(np.isfinite(features)):
                         raise FloatingPointError("tracker returned non-finite corners")

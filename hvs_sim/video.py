@@ -34,7 +34,6 @@ import csv
 import logging
 import statistics
 import sys
-import tempfile
 import time
 from collections import Counter
 from collections.abc import Iterator
@@ -48,6 +47,7 @@ from tqdm import tqdm
 
 from hvs_sim.cli import DEFAULT_TRACKER
 from hvs_sim.errors import ConfigError, InputError, choice_error
+from hvs_sim.outputs import check_output_file, prepare_out_dir
 from hvs_sim.tracking import TRACKER_NAMES, Track, make_tracker
 from hvs_sim.tracking.frames import MIN_ROI, check_roi
 
@@ -167,29 +167,8 @@ def _video_frames(cap: cv2.VideoCapture) -> Iterator[np.ndarray]:
 # ---------------------------------------------------------------- output: folder, CSV, video, rerun
 
 
-def prepare_out_dir(out) -> Path:
-    """Create the output folder and prove it is writable, before any tracking time is spent."""
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise ConfigError(f"--out {out} is a file; give a folder (it is created when missing)")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryFile(dir=out):
-            pass
-    except OSError as exc:
-        raise ConfigError(f"cannot write to the --out folder {out} ({exc.strerror or exc}); "
-                          f"give a folder you can create and write to") from None
-    return out
-
-
 def prepare_rrd(rrd) -> Path | None:
-    if rrd is None:
-        return None
-    rrd = Path(rrd)
-    if rrd.is_dir():
-        raise ConfigError(f"--rrd {rrd} is a folder; give a file name such as {rrd / 'track.rrd'}")
-    prepare_out_dir(rrd.parent)
-    return rrd
+    return check_output_file(rrd, "--rrd")
 
 
 def csv_row(index: int, track: Track) -> list:

@@ -12,7 +12,9 @@ from pathlib import Path
 import numpy as np
 
 from hvs_sim.camera_model import REALISTIC_PRESET
+from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.loop import LoopConfig
+from hvs_sim.validate import check_number
 
 SERVO_TRACKERS = ("ground_truth", "hybrid", "deep_lk_residual", "deep_lk", "ecc")
 # initial offsets (camera frame): x, y within ±4 cm, depth −4…+10 cm, roll within ±0.25 rad
@@ -32,6 +34,37 @@ class ServoBenchConfig:
     workers: int = 1
     camera: str = REALISTIC_PRESET  # camera model of every episode (hvs_sim.camera_model.SENSOR_PRESETS)
     people: str = "textured"  # how the people look ("plain": the flat figures of the earlier benchmarks)
+    seeds: tuple[int, ...] | None = None  # explicit episode seeds (then `episodes` and `seed0` are not used)
+
+    def __post_init__(self):
+        from hvs_sim.camera_model import sensor_preset
+        from hvs_sim.loop import LOOP_TRACKERS
+        from hvs_sim.scene.scenarios import PEOPLE_STYLES, SCENARIO_NAMES
+
+        for what, values, accepted in (("tracker", self.trackers, LOOP_TRACKERS), ("scenario", self.scenarios, SCENARIO_NAMES),
+                                       ("people style", (self.people,), PEOPLE_STYLES)):
+            if not values:
+                raise ConfigError(f"the servo benchmark needs at least one {what}; accepted: {', '.join(accepted)}")
+            for v in values:
+                if v not in accepted:
+                    raise choice_error(what, v, accepted)
+        check_number("episodes", self.episodes, 1, integer=True)
+        check_number("seed0", self.seed0, 0, integer=True)
+        check_number("extra_steps", self.extra_steps, 0, integer=True)
+        if self.steps is not None:
+            check_number("steps", self.steps, 1, integer=True)
+        check_number("success_px", self.success_px, 0, lo_open=True)
+        check_number("workers", self.workers, 1, integer=True)
+        if self.seeds is not None:
+            if not self.seeds:
+                raise ConfigError("seeds, when given, must list at least one episode seed")
+            for s in self.seeds:
+                check_number("seed", s, 0, integer=True)
+        sensor_preset(self.camera)
+
+    @property
+    def episode_seeds(self) -> list[int]:
+        return list(self.seeds) if self.seeds is not None else [self.seed0 + i for i in range(self.episodes)]
 
 
 def episode_offset(seed: int) -> tuple[float, ...]:
@@ -66,7 +99,7 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    seeds = [config.seed0 + i for i in range(config.episodes)]
+    seeds = config.episode_seeds
     jobs = [(s, t, seed, config.steps, config.extra_steps, seed == seeds[0], config.camera, config.people)
             for s in config.scenarios for t in config.trackers for seed in seeds]
     os.environ["HVS_WORKERS"] = str(config.workers)
@@ -112,7 +145,7 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
 def servo_table(summary: dict, config: ServoBenchConfig) -> str:
     lines = []
     for s, per in summary["results"].items():
-        lines += [f"## {s} ({config.episodes} episodes per tracker, success = converged and final error ≤ {config.success_px} px)", "",
+        lines += [f"## {s} ({len(config.episode_seeds)} episodes per tracker, success = converged and final error ≤ {config.success_px} px)", "",
                   ("| tracker | success | converged | median time to converge (s) | median final error (px) | max final error (px) "
                   "| median max error in occlusion (px) | lost steps | predict steps | steps/s |"),
                   "|---|---|---|---|---|---|---|---|---|---|"]

@@ -20,7 +20,9 @@ import numpy as np
 
 from hvs_sim.bench.sequences import Sequence, make_sequence
 from hvs_sim.camera_model import REALISTIC_PRESET
+from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.tracking import make_tracker
+from hvs_sim.validate import check_number
 
 # the methods and the hybrid's ablations a default run compares (any name of tracking/registry.py is accepted)
 METHODS = ("sift", "ecc", "deep_lk", "deep_lk_residual", "hybrid", "hybrid_paper", "hybrid_grey", "hybrid_no_anchor",
@@ -84,6 +86,25 @@ class TrackBenchConfig:
     workers: int = 1
     camera: str = REALISTIC_PRESET  # camera model of every sequence (hvs_sim.camera_model.SENSOR_PRESETS)
     people: str = "textured"  # how the people look ("plain": the flat figures of the earlier benchmarks)
+
+    def __post_init__(self):
+        from hvs_sim.camera_model import sensor_preset
+        from hvs_sim.scene.scenarios import MOUNTS, PEOPLE_STYLES, SCENARIO_NAMES
+        from hvs_sim.tracking import TRACKER_NAMES
+
+        for what, values, accepted in (("tracker", self.methods, TRACKER_NAMES), ("scenario", self.scenarios, SCENARIO_NAMES),
+                                       ("mount", self.mounts, MOUNTS), ("people style", (self.people,), PEOPLE_STYLES)):
+            if not values:
+                raise ConfigError(f"the tracking benchmark needs at least one {what}; accepted: {', '.join(accepted)}")
+            for v in values:
+                if v not in accepted:
+                    raise choice_error(what, v, accepted)
+        for s in self.seeds:
+            check_number("seed", s, 0, integer=True)
+        if self.frames is not None:
+            check_number("frames", self.frames, 2, integer=True)
+        check_number("workers", self.workers, 1, integer=True)
+        sensor_preset(self.camera)
 
 
 def _job(args):

@@ -1,0 +1,56 @@
+"""Output paths are checked before any long work starts, so a bad path cannot cost a finished run."""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+from hvs_sim.errors import ConfigError
+
+
+def prepare_out_dir(out, flag: str = "--out") -> Path:
+    """Create the output folder and prove it is writable."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise ConfigError(f"{flag} {out} is a file; give a folder (it is created when missing)")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=out):
+            pass
+    except OSError as exc:
+        raise ConfigError(f"cannot write to the {flag} folder {out} ({exc.strerror or exc}); "
+                          f"give a folder you can create and write to") from None
+    return out
+
+
+def check_output_file(path, flag: str) -> Path | None:
+    """A file the run will write at its end: refuse a folder or an unwritable place now."""
+    if path is None:
+        return None
+    path = Path(path)
+    if path.is_dir():
+        raise ConfigError(f"{flag} {path} is a folder; give a file name such as {path / ('run' + _suffix(flag))}")
+    prepare_out_dir(path.parent, f"{flag}'s")
+    return path
+
+
+def _suffix(flag: str) -> str:
+    return {"--json": ".json", "--rrd": ".rrd"}.get(flag, "")
+
+
+def fresh_out_dir(out, overwrite: bool, outputs: tuple[str, ...], flag: str = "--out") -> Path:
+    """An output folder for a new run: empty, or with --overwrite the files this command writes
+    (glob patterns `outputs`) removed first, so no stale result stays beside new ones. Anything
+    else in the folder is left alone."""
+    out = prepare_out_dir(out, flag)
+    entries = sorted(p.name for p in out.iterdir())
+    if entries and not overwrite:
+        shown = ", ".join(entries[:5]) + (", …" if len(entries) > 5 else "")
+        raise ConfigError(f"{flag} {out} is not empty ({len(entries)} entries: {shown}); pass --overwrite to replace "
+                          "this command's results there, or choose another folder")
+    if overwrite:
+        for pattern in outputs:
+            for p in out.glob(pattern):
+                if p.is_file():
+                    p.unlink()
+    return out

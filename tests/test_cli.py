@@ -1,0 +1,78 @@
+"""The CLI refuses what it cannot honour before any long work starts, and says so."""
+
+from __future__ import annotations
+
+import pytest
+
+from hvs_sim.cli import build_parser, main
+from hvs_sim.errors import InputError, StateError
+from hvs_sim.loop import LoopConfig, ServoLoop
+from hvs_sim.outputs import fresh_out_dir
+from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+
+
+def _fails(argv, capsys, *words) -> None:
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    for w in words:
+        assert w in err, err
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as exc:
+        build_parser().parse_args(["--version"])
+    assert exc.value.code == 0 and "hvs-sim" in capsys.readouterr().out
+
+
+def test_run_has_no_mount_option_and_checks_its_outputs_first(tmp_path, capsys):
+    _fails(["run", "--mount", "handheld", "--steps", "2"], capsys, "unrecognized arguments: --mount")
+    _fails(["run", "--steps", "2", "--json", str(tmp_path)], capsys, "--json", "is a folder")
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    _fails(["run", "--steps", "2", "--rrd", str(blocker / "run.rrd")], capsys, "--rrd")
+    _fails(["run", "--steps", "0"], capsys, "--steps must be >= 1")
+
+
+def test_scene_refuses_zero_frames_and_a_non_empty_out(tmp_path, capsys):
+    _fails(["scene", "--frames", "0", "--out", str(tmp_path / "a")], capsys, "--frames must be >= 1")
+    (tmp_path / "b").mkdir()
+    (tmp_path / "b" / "old.txt").write_text("x")
+    _fails(["scene", "--frames", "1", "--out", str(tmp_path / "b")], capsys, "not empty", "--overwrite")
+
+
+def test_bench_options_that_do_not_apply_are_refused(tmp_path, capsys):
+    out = str(tmp_path / "o")
+    _fails(["bench", "servo", "--mounts", "arm", "--out", out], capsys, "--mounts applies to `bench track` only")
+    _fails(["bench", "track", "--episodes", "3", "--out", out], capsys, "--episodes applies to `bench servo` only")
+    _fails(["bench", "servo", "--episodes", "0", "--out", out], capsys, "episodes must be an integer")
+    _fails(["bench", "servo", "--episodes", "2", "--seeds", "1", "2", "--out", out], capsys, "not both")
+    _fails(["bench", "track", "--smoke", "--methods", "hybird", "--out", out], capsys, "unknown tracker 'hybird'",
+           "accepted")
+    _fails(["bench", "track", "--smoke", "--scenarios", "nope", "--out", out], capsys, "unknown scenario 'nope'")
+
+
+def test_bench_refuses_a_non_empty_out_and_overwrite_replaces_only_its_own_files(tmp_path, capsys):
+    out = tmp_path / "bench"
+    out.mkdir()
+    (out / "fig7_walk_by.png").write_bytes(b"stale")
+    (out / "notes.txt").write_text("mine")
+    _fails(["bench", "track", "--smoke", "--out", str(out)], capsys, "not empty", "fig7_walk_by.png")
+    fresh_out_dir(out, True, ("summary.json", "*.png"))
+    assert not (out / "fig7_walk_by.png").exists() and (out / "notes.txt").read_text() == "mine"
+
+
+def test_train_writes_beside_the_package_weights_only_when_asked():
+    args = build_parser().parse_args(["train", "gru"])
+    assert args.out == "out/weights"
+
+
+def test_closed_loop_stops_with_a_clear_error_when_the_tracker_cannot_start(monkeypatch):
+    sc = make_scenario("clear", mount="arm", seed=0, camera=CameraConfig(width=160, height=120, fovy=45.0))
+    loop = ServoLoop(sc, "deep_lk", LoopConfig(steps=3))
+
+    def refuse(frame, roi):
+        raise InputError("too little texture")
+
+    monkeypatch.setattr(loop.tracker, "init", refuse)
+    with pytest.raises(StateError, match="could not start on the first frame.*too little texture"):
+        list(loop)
