@@ -32,6 +32,27 @@ def _probe(backend: str) -> bool:
         return False
 
 
+_RENDERED_IN: int | None = None  # pid of the process that first rendered with MuJoCo's GL context
+
+
+def note_rendering() -> None:
+    """Called on a render: remembers which process holds GL state."""
+    global _RENDERED_IN
+    if _RENDERED_IN is None:
+        _RENDERED_IN = os.getpid()
+
+
+def check_not_forked_after_rendering() -> None:
+    """A process forked from one that had rendered inherits its GL state half-initialised, and
+    creating a new context there hangs for ever (seen with gymnasium's AsyncVectorEnv and the
+    default fork start method). Refuse with a clear error instead."""
+    if _RENDERED_IN is not None and _RENDERED_IN != os.getpid():
+        raise RenderError(f"this process was forked from process {_RENDERED_IN} after it had rendered with MuJoCo; "
+                          "a GL context cannot be created here. Start workers with the 'spawn' method, e.g. "
+                          "gymnasium.vector.AsyncVectorEnv(fns, context='spawn') or "
+                          "multiprocessing.get_context('spawn')")
+
+
 def configure_gl() -> str:
     """Make sure MUJOCO_GL names a working headless back-end and return it."""
     chosen = os.environ.get("MUJOCO_GL")

@@ -3,8 +3,16 @@
 Observation: {"image": H×W×3 uint8 wrist-camera frame, "joints": joint angles (wrapped) and velocities}.
 Action: a camera twist (vx, vy, vz, wx, wy, wz) in [−1, 1]⁶, scaled by max_linear / max_angular,
 or with action_type="joint" joint velocities in [−1, 1]ⁿ scaled by the joint velocity limits.
-Reward: minus the ground-truth mean corner error to the desired corners (pixels).
+Reward: minus the ground-truth mean corner error to the desired corners, in pixels of the
+observation (`reward="pixels"`, the default) or divided by the image diagonal (`reward="normalised"`,
+about −0.5 … 0, easier on a value function).
 Terminated when that error stays below `converge_px` for `hold_steps` steps.
+info: error_px, converged, held_steps.
+
+Defaults worth knowing: scenario "clear" (no person; pass e.g. scenario="walk_by"), a 160×120
+image, the ideal camera. An action must have the action space's shape and finite values (a NaN
+would poison the physics); values outside [−1, 1] are clipped, as the space says.
+Workers of a vector env must be started with 'spawn' once the parent has rendered (see gl.py).
 """
 
 from __future__ import annotations
@@ -17,11 +25,14 @@ import numpy as np
 from gymnasium import spaces
 
 from hvs_sim.control.arm import ArmLimits, camera_twist_to_world, twist_to_joint_velocities
-from hvs_sim.errors import ConfigError, choice_error
+from hvs_sim.errors import InputError, choice_error
 from hvs_sim.render.camera import CameraPose
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+from hvs_sim.validate import check_number
 
 ACTION_TYPES = ("twist", "joint")
+REWARDS = ("pixels", "normalised")
+MIN_IMAGE = 64  # pixels, as CameraConfig accepts
 
 
 class VisualServoEnv(gym.Env):
@@ -30,15 +41,24 @@ class VisualServoEnv(gym.Env):
     def __init__(self, scenario: str = "clear", render_mode: str | None = None, action_type: str = "twist",
                  width: int = 160, height: int = 120, max_offset: float = 0.05, max_roll: float = 0.15,
                  converge_px: float = 1.0, hold_steps: int = 5, max_linear: float = 0.1, max_angular: float = 0.5,
-                 camera: str = "ideal"):
+                 camera: str = "ideal", reward: str = "pixels"):
         """camera: the camera model of the observations (hvs_sim.camera_model.SENSOR_PRESETS), e.g.
         "phone_handheld" for exposure changes, blur, noise and JPEG as a real camera gives them."""
         if render_mode not in (None, "rgb_array"):
             raise choice_error("render_mode", render_mode, ["rgb_array", "None"])
         if action_type not in ACTION_TYPES:
             raise choice_error("action_type", action_type, ACTION_TYPES)
-        if max_linear <= 0 or max_angular <= 0:
-            raise ConfigError("max_linear and max_angular must be > 0")
+        if reward not in REWARDS:
+            raise choice_error("reward", reward, REWARDS)
+        check_number("width", width, MIN_IMAGE, integer=True)
+        check_number("height", height, MIN_IMAGE, integer=True)
+        check_number("max_offset (m)", max_offset, 0, 0.2)
+        check_number("max_roll (rad)", max_roll, 0, 1.0)
+        check_number("converge_px", converge_px, 0, lo_open=True)
+        check_number("hold_steps", hold_steps, 1, integer=True)
+        check_number("max_linear (m/s)", max_linear, 0, lo_open=True)
+        check_number("max_angular (rad/s)", max_angular, 0, lo_open=True)
+        self.reward_scale = 1.0 / float(np.hypot(width, height)) if reward == "normalised" else 1.0
         self.render_mode, self.action_type = render_mode, action_type
         self.base = make_scenario(scenario, mount="arm", camera=CameraConfig(width=width, height=height, sensor=camera))
         self.max_offset, self.max_roll = max_offset, max_roll
@@ -79,12 +99,20 @@ class VisualServoEnv(gym.Env):
         self.limits = ArmLimits(qdot_max=qdot_max, q_lower=lower, q_upper=upper)
         self._held = 0
         err = self._error()
-        return self._obs(), {"error_px": err}
+        return self._obs(), {"error_px": err, "converged": False, "held_steps": 0}
 
     def step(self, action):
         if self.scene is None:
             raise gym.error.ResetNeeded("call reset() before step()")
-        a = np.clip(np.asarray(action, np.float64), -1.0, 1.0)
+        try:
+            a = np.asarray(action, np.float64)
+        except (TypeError, ValueError):
+            raise InputError(f"action must be numbers of shape {self.action_space.shape}, got {action!r}") from None
+        if a.shape != self.action_space.shape:
+            raise InputError(f"action must have shape {self.action_space.shape} ({self.action_type}), got {a.shape}")
+        if not np.isfinite(a).all():
+            raise InputError("action contains NaN or inf; the physics would be left in an invalid state")
+        a = np.clip(a, -1.0, 1.0)
         if self.action_type == "twist":
             R = self.renderer.camera_pose().R
             cmd = twist_to_joint_velocities(self.scene.camera_jacobian(), camera_twist_to_world(R, a * self.scale),
@@ -96,7 +124,8 @@ class VisualServoEnv(gym.Env):
         err = self._error()
         self._held = self._held + 1 if err < self.converge_px else 0
         terminated = self._held >= self.hold_steps
-        return self._obs(), -err, terminated, False, {"error_px": err}
+        info = {"error_px": err, "converged": terminated, "held_steps": self._held}
+        return self._obs(), -err * self.reward_scale, terminated, False, info
 
     def render(self):
         if self.render_mode == "rgb_array" and self.scene is not None:

@@ -15,6 +15,7 @@ import numpy as np
 from dm_control.mujoco.wrapper import core as mj_core
 
 from hvs_sim.camera_model import SensorState, decode, distort_points, distortion_maps, light_scale
+from hvs_sim.gl import check_not_forked_after_rendering, note_rendering
 from hvs_sim.render.camera import CameraPose, intrinsics, project, transfer_points
 from hvs_sim.scene.parts import OCCLUDER_GROUP
 from hvs_sim.scene.world import Scene
@@ -51,6 +52,7 @@ class Renderer:
     """Renders the scene's eye camera. Segmentation renders give the exact occlusion fraction."""
 
     def __init__(self, scene: Scene):
+        check_not_forked_after_rendering()
         self.scene = scene
         cam = scene.scenario.camera
         self.width, self.height = cam.width, cam.height
@@ -77,6 +79,7 @@ class Renderer:
         return intrinsics(cam.width, cam.height, cam.fovy)
 
     def _render(self) -> np.ndarray:
+        note_rendering()
         return self.scene.physics.render(self.height, self.width, camera_id=self._camera_id,
                                          scene_option=self._show_people)
 
@@ -147,6 +150,7 @@ class Renderer:
         return distort_points(self.K, self.sensor.distortion, uv) if self.sensor.distortion else uv
 
     def _target_mask(self, hide_people: bool) -> np.ndarray:
+        note_rendering()
         seg = self.scene.physics.render(self.height, self.width, camera_id=self._camera_id, segmentation=True,
                                         scene_option=self._hide_people if hide_people else self._show_people)
         return (seg[..., 0] == self._target_id) & (seg[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM))
