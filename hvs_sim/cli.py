@@ -372,6 +372,22 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+EXIT_SIGINT, EXIT_SIGTERM = 130, 143  # the shell's codes for a process ended by those signals
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the process is so that the clean-up written for Ctrl-C runs for it too:
+    partial summaries marked interrupted, recordings closed, benchmark workers ended."""
+
+
+_SIGTERM_SEEN = []  # set by the handler: a command may catch the interrupt itself and return 130
+
+
+def _on_sigterm(signum, frame):
+    _SIGTERM_SEEN.append(signum)
+    raise Terminated()
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     try:
@@ -384,11 +400,27 @@ def main(argv: list[str] | None = None) -> int:
     if getattr(args, "workers", 1) < 1:
         print("hvs-sim: error: --workers must be >= 1", file=sys.stderr)
         return 2
+    import signal
+    import threading
+
+    handle = threading.current_thread() is threading.main_thread()  # signal handlers live in the main thread
+    previous = signal.signal(signal.SIGTERM, _on_sigterm) if handle else None
+    _SIGTERM_SEEN.clear()
+    terminated = False
     try:
-        return args.func(args)
+        code = args.func(args)
     except HvsError as exc:
         print(f"hvs-sim: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt as exc:
+        terminated = isinstance(exc, Terminated)
+        print(f"hvs-sim: {'terminated (SIGTERM)' if terminated else 'interrupted (Ctrl-C)'}: stopped; what was "
+              "finished is kept, and summaries written so far say interrupted", file=sys.stderr)
+        code = EXIT_SIGINT
+    finally:
+        if handle:
+            signal.signal(signal.SIGTERM, previous)
+    return EXIT_SIGTERM if (terminated or _SIGTERM_SEEN) and code == EXIT_SIGINT else code
 
 
 if __name__ == "__main__":

@@ -29,23 +29,43 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
                              loop.renderer.target_corners_world())
     records = []
     bar = tqdm(total=config.steps, disable=not progress, desc=f"{scenario.name}/{tracker}", unit="step")
-    for r in loop:
-        t0 = time.perf_counter()
-        if logger is not None:
-            logger.log_step(r)
-        r.timings["log"] = 1e3 * (time.perf_counter() - t0)
-        if not keep_records:
-            r.frame = None
-        records.append(r)
-        bar.update(1)
-        bar.set_postfix(err=f"{r.error_px:.2f}px", mode=r.mode, occ=f"{r.occlusion:.0%}", refresh=False)
-    bar.close()
-    if logger is not None:
-        logger.rec.flush()
-    summary = {"scenario": scenario.name, "mount": scenario.mount, "seed": scenario.seed, "tracker": tracker,
-               "camera": scenario.camera.sensor.name, "target": scenario.target_label, "wall": scenario.wall,
-               "people": scenario.people, **summarize_run(records, config), "logging_failed": bool(logger and logger.failed)}
-    if json_path:
-        Path(json_path).parent.mkdir(parents=True, exist_ok=True)
-        Path(json_path).write_text(json.dumps(summary, indent=2))
-    return summary, records
+    interrupted = completed = False
+    try:
+        for r in loop:
+            t0 = time.perf_counter()
+            if logger is not None:
+                logger.log_step(r)
+            r.timings["log"] = 1e3 * (time.perf_counter() - t0)
+            if not keep_records:
+                r.frame = None
+            records.append(r)
+            bar.update(1)
+            bar.set_postfix(err=f"{r.error_px:.2f}px", mode=r.mode, occ=f"{r.occlusion:.0%}", refresh=False)
+        completed = True
+    except KeyboardInterrupt:  # Ctrl-C, or SIGTERM turned into one by the CLI: keep what was done, then go on
+        interrupted = True
+        raise
+    finally:
+        bar.close()
+        if logger is not None:  # a complete recording of the steps so far, whatever stopped the run
+            logger.rec.flush()
+            logger.rec.disconnect()
+        if json_path and (completed or (interrupted and records)):
+            _write_summary(json_path, scenario, tracker, config, records, logger, interrupted)
+    return _summary(scenario, tracker, config, records, logger, False), records
+
+
+def _summary(scenario, tracker, config, records, logger, interrupted: bool) -> dict:
+    out = {"scenario": scenario.name, "mount": scenario.mount, "seed": scenario.seed, "tracker": tracker,
+           "camera": scenario.camera.sensor.name, "target": scenario.target_label, "wall": scenario.wall,
+           "people": scenario.people, "interrupted": interrupted}
+    if records:
+        out.update(summarize_run(records, config))
+        out["steps_run"] = len(records)
+    out["logging_failed"] = bool(logger and logger.failed)
+    return out
+
+
+def _write_summary(json_path, scenario, tracker, config, records, logger, interrupted: bool) -> None:
+    Path(json_path).parent.mkdir(parents=True, exist_ok=True)
+    Path(json_path).write_text(json.dumps(_summary(scenario, tracker, config, records, logger, interrupted), indent=2))

@@ -2,6 +2,14 @@
 
 from __future__ import annotations
 
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+
 import pytest
 
 from hvs_sim.cli import build_parser, main
@@ -76,3 +84,29 @@ def test_closed_loop_stops_with_a_clear_error_when_the_tracker_cannot_start(monk
     monkeypatch.setattr(loop.tracker, "init", refuse)
     with pytest.raises(StateError, match="could not start on the first frame.*too little texture"):
         list(loop)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+def test_a_signalled_run_stops_cleanly_and_keeps_a_summary_marked_interrupted(tmp_path, sig, code):
+    out_json, out_rrd = tmp_path / "run.json", tmp_path / "run.rrd"
+    cmd = [sys.executable, "-m", "hvs_sim.cli", "run", "--scenario", "clear", "--steps", "400", "--tracker",
+           "ground_truth", "--width", "320", "--height", "240", "--json", str(out_json), "--rrd", str(out_rrd)]
+    proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.PIPE, env={**os.environ, "MUJOCO_GL": "egl"})
+    seen, buf = 0, b""
+    deadline = time.monotonic() + 240
+    while seen < 5 and time.monotonic() < deadline:  # wait for a few steps on the progress bar
+        chunk = proc.stderr.read1(256)
+        if not chunk:
+            break
+        buf += chunk
+        counts = re.findall(rb"(\d+)/400", buf)
+        seen = int(counts[-1]) if counts else 0
+    assert seen >= 5, buf.decode(errors="replace")[-2000:]
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == code, err.decode(errors="replace")[-2000:]
+    assert "Traceback" not in err.decode(errors="replace")
+    summary = json.loads(out_json.read_text())
+    assert summary["interrupted"] is True and 5 <= summary["steps_run"] < 400
+    assert out_rrd.stat().st_size > 0

@@ -32,16 +32,15 @@ from __future__ import annotations
 import csv
 import json
 import math
-import multiprocessing
 import time
 import zlib
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
 import numpy as np
 
+from hvs_sim.bench.pool import run_jobs, write_interrupted
 from hvs_sim.camera_model import (
     REALISTIC_PRESET,
     SensorModel,
@@ -822,7 +821,6 @@ def _natural_job(args):
 
 def run_natural_bench(config: NaturalBenchConfig, out: Path, progress: bool = True) -> dict:
     """Every method on every (source, kind, seed) sequence; writes summary.json, frames.csv, table.md and figures."""
-    from tqdm.auto import tqdm
 
     from hvs_sim.bench.track import summarize
 
@@ -831,16 +829,13 @@ def run_natural_bench(config: NaturalBenchConfig, out: Path, progress: bool = Tr
     jobs = [(s, k, seed, config.frames, config.methods, config.camera, config.threads)
             for s in config.sources for k in config.kinds for seed in config.seeds]
     results, metas = {}, {}
-    if config.workers > 1:
-        # spawn, not fork: a forked child inherits torch's and EGL's threads half-initialised and hangs
-        with ProcessPoolExecutor(config.workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-            for key, res, meta in tqdm(pool.map(_natural_job, jobs), total=len(jobs), disable=not progress,
-                                       desc="bench natural", unit="seq"):
-                results[key], metas[key] = res, meta
-    else:
-        for job in tqdm(jobs, disable=not progress, desc="bench natural", unit="seq"):
-            key, res, meta = _natural_job(job)
+    config_json = {k: list(v) if isinstance(v, tuple) else v for k, v in config.__dict__.items()}
+    try:
+        for key, res, meta in run_jobs(_natural_job, jobs, config.workers, "bench natural", "seq", progress):
             results[key], metas[key] = res, meta
+    except KeyboardInterrupt:
+        write_interrupted(out, list(results), len(jobs), config_json)
+        raise
 
     def label(key) -> str:
         return f"{key[0]}/{key[1]}/s{key[2]}"
@@ -848,7 +843,7 @@ def run_natural_bench(config: NaturalBenchConfig, out: Path, progress: bool = Tr
     def visible(r):
         return r["occlusion"] < VISIBLE_BELOW
 
-    summary = {"config": {k: list(v) if isinstance(v, tuple) else v for k, v in config.__dict__.items()},
+    summary = {"config": config_json,
                "per_sequence": {}, "per_kind": {}, "overall": {}, "visible_lt_40": {}, "unoccluded_sequences": {},
                "timing": {}, "generation": {}}
     for key in results:

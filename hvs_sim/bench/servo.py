@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import json
-import multiprocessing
 import os
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from hvs_sim.bench.pool import run_jobs, write_interrupted
 from hvs_sim.camera_model import REALISTIC_PRESET
 from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.loop import LoopConfig
@@ -93,8 +92,6 @@ def _episode(args):
 
 
 def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) -> dict:
-    from tqdm.auto import tqdm
-
     from hvs_sim.viz.figures import servo_figure
 
     out = Path(out)
@@ -104,17 +101,14 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
             for s in config.scenarios for t in config.trackers for seed in seeds]
     os.environ["HVS_WORKERS"] = str(config.workers)
     episodes, traces = {}, {}
-    if config.workers > 1:
-        # spawn, not fork: a forked child inherits torch's and EGL's threads half-initialised and hangs
-        with ProcessPoolExecutor(config.workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-            it = pool.map(_episode, jobs)
-            for key, summ, trace in tqdm(it, total=len(jobs), disable=not progress, desc="bench servo", unit="episode"):
-                episodes[key], traces[key] = summ, trace
-    else:
-        for job in tqdm(jobs, disable=not progress, desc="bench servo", unit="episode"):
-            key, summ, trace = _episode(job)
+    config_json = {k: list(v) if isinstance(v, tuple) else v for k, v in config.__dict__.items()}
+    try:
+        for key, summ, trace in run_jobs(_episode, jobs, config.workers, "bench servo", "episode", progress):
             episodes[key], traces[key] = summ, trace
-    summary = {"config": {k: list(v) if isinstance(v, tuple) else v for k, v in config.__dict__.items()},
+    except KeyboardInterrupt:
+        write_interrupted(out, list(episodes), len(jobs), config_json)
+        raise
+    summary = {"config": config_json,
                "offset_range": {"low": OFFSET_LOW.tolist(), "high": OFFSET_HIGH.tolist(),
                                 "axes": "dx, dy, dz (m, camera frame), roll (rad)"},
                "results": {}, "episodes": [dict(e) for e in episodes.values()]}

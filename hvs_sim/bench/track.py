@@ -10,14 +10,13 @@ from __future__ import annotations
 
 import csv
 import json
-import multiprocessing
 import os
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from hvs_sim.bench.pool import run_jobs, write_interrupted
 from hvs_sim.bench.sequences import Sequence, make_sequence
 from hvs_sim.camera_model import REALISTIC_PRESET
 from hvs_sim.errors import ConfigError, choice_error
@@ -120,23 +119,19 @@ def _job(args):
 
 
 def run_track_bench(config: TrackBenchConfig, out: Path, progress: bool = True) -> dict:
-    from tqdm.auto import tqdm
-
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     jobs = [(s, m, seed, config.frames, config.methods, config.camera, config.people) for s in config.scenarios for m in config.mounts for seed in config.seeds]
     results = {}
     os.environ["HVS_WORKERS"] = str(config.workers)
-    if config.workers > 1:
-        # spawn, not fork: a forked child inherits torch's and EGL's threads half-initialised and hangs
-        with ProcessPoolExecutor(config.workers, mp_context=multiprocessing.get_context("spawn")) as pool:
-            for key, res in tqdm(pool.map(_job, jobs), total=len(jobs), disable=not progress, desc="bench track", unit="seq"):
-                results[key] = res
-    else:
-        for job in tqdm(jobs, disable=not progress, desc="bench track", unit="seq"):
-            key, res = _job(job)
+    config_json = {k: list(v) if isinstance(v, tuple) else v for k, v in config.__dict__.items()}
+    try:
+        for key, res in run_jobs(_job, jobs, config.workers, "bench track", "seq", progress):
             results[key] = res
-    summary = {"config": {k: list(v) if isinstance(v, tuple) else v for k, v in config.__dict__.items()},
+    except KeyboardInterrupt:
+        write_interrupted(out, list(results), len(jobs), config_json)
+        raise
+    summary = {"config": config_json,
                "per_scenario": {}, "occlusion_scenarios": {}, "target_set": {}, "overall": {}}
     for m in config.methods:
         for s in config.scenarios:
