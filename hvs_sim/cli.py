@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import shutil
 import sys
 from pathlib import Path
 
@@ -92,6 +93,8 @@ def cmd_run(args) -> int:
         raise ConfigError(f"--steps must be >= 1, got {args.steps}")
     for flag, path in (("--json", args.json), ("--rrd", args.rrd)):
         check_output_file(path, flag)
+    if args.spawn:
+        _check_viewer()
     scenario = _scenario_from_args(args)
     config = LoopConfig(steps=args.steps)
     summary, _ = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,
@@ -102,8 +105,25 @@ def cmd_run(args) -> int:
     if args.json:
         print(f"summary: {args.json}")
     if args.rrd:
-        print(f"recording: {args.rrd}  (open it with: rerun {args.rrd})")
+        viewer = "rerun" if shutil.which("rerun") else str(Path(sys.executable).parent / "rerun")
+        print(f"recording: {args.rrd}  (open it with: {viewer} {args.rrd})")
     return 0
+
+
+def _check_viewer() -> None:
+    """--spawn opens rerun's viewer window: refuse now, not after the run, where it cannot open."""
+    import os
+
+    if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        raise ConfigError("--spawn opens the rerun viewer window, but this machine has no display (DISPLAY and "
+                          "WAYLAND_DISPLAY are unset). Save a recording with --rrd out/run.rrd and open it where there "
+                          "is a screen: rerun out/run.rrd")
+    venv_bin = str(Path(sys.executable).parent)
+    if shutil.which("rerun") is None and shutil.which("rerun", path=venv_bin):
+        os.environ["PATH"] = venv_bin + os.pathsep + os.environ.get("PATH", "")  # rerun-sdk's viewer, not activated
+    if shutil.which("rerun") is None:
+        raise ConfigError("--spawn needs the rerun viewer (the `rerun` command of rerun-sdk) on PATH; install "
+                          "rerun-sdk in this environment, or save a recording with --rrd and open it elsewhere")
 
 
 def cmd_train(args) -> int:

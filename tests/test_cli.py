@@ -110,3 +110,10 @@ def test_a_signalled_run_stops_cleanly_and_keeps_a_summary_marked_interrupted(tm
     summary = json.loads(out_json.read_text())
     assert summary["interrupted"] is True and 5 <= summary["steps_run"] < 400
     assert out_rrd.stat().st_size > 0
+
+
+def test_spawn_without_a_display_says_what_to_do_instead(monkeypatch, capsys):
+    monkeypatch.setattr(sys, "platform", "linux")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    _fails(["run", "--steps", "2", "--spawn"], capsys, "no display", "--rrd")
