@@ -48,7 +48,7 @@ def _add_scene_args(p: argparse.ArgumentParser, mount: bool) -> None:
     p.add_argument("--scenario", default="walk_by", help=f"one of: {', '.join(SCENARIO_NAMES)} (hvs-sim scenes --list)")
     if mount:  # `run` is closed-loop: its camera is on the arm, so it offers no --mount
         p.add_argument("--mount", default="handheld", choices=("handheld", "arm"), help="where the camera is")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="seeds the person, the shake, the sensor noise")
     p.add_argument("--camera", default="ideal", choices=SENSOR_NAMES,
                    help="camera model: exposure, blur, noise, JPEG, distortion (default: ideal = clean renders)")
     p.add_argument("--target", default=None, help="target: a flag name or a natural texture name (default: the "
@@ -59,9 +59,9 @@ def _add_scene_args(p: argparse.ArgumentParser, mount: bool) -> None:
     p.add_argument("--wall-images", default=None, help="a folder of images to fill the wall (centre-cropped to 3:2)")
     p.add_argument("--people", default=None, choices=PEOPLE_STYLES,
                    help="how the people look (default textured; plain = the flat figures of earlier versions)")
-    p.add_argument("--width", type=int, default=640)
-    p.add_argument("--height", type=int, default=480)
-    p.add_argument("--fovy", type=float, default=45.0)
+    p.add_argument("--width", type=int, default=640, help="image width in pixels (64-4096)")
+    p.add_argument("--height", type=int, default=480, help="image height in pixels (64-4096)")
+    p.add_argument("--fovy", type=float, default=45.0, help="vertical field of view in degrees")
 
 
 def cmd_scene(args) -> int:
@@ -95,15 +95,22 @@ def cmd_run(args) -> int:
         check_output_file(path, flag)
     if args.spawn:
         _check_viewer()
+    if args.figures:
+        prepare_out_dir(args.figures, "--figures")
     scenario = _scenario_from_args(args)
     config = LoopConfig(steps=args.steps)
-    summary, _ = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,
-                             keep_records=bool(args.rrd or args.spawn))
+    summary, records = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,
+                                   keep_records=bool(args.rrd or args.spawn or args.figures))
     brief = {k: summary[k] for k in ("converged", "steps_to_converge", "final_error_px", "max_error_px_during_occlusion",
                                      "lost_steps", "predict_steps", "fault_steps", "steps_per_second")}
     print(json.dumps(brief, indent=2))
     if args.json:
         print(f"summary: {args.json}")
+    if args.figures:
+        from hvs_sim.viz.figures import run_figures
+
+        paths = run_figures(records, summary, Path(args.figures), config.converge_px)
+        print("figures: " + ", ".join(map(str, paths)))
     if args.rrd:
         viewer = "rerun" if shutil.which("rerun") else str(Path(sys.executable).parent / "rerun")
         print(f"recording: {args.rrd}  (open it with: {viewer} {args.rrd})")
@@ -307,25 +314,38 @@ def cmd_demo(args) -> int:
     parser = build_parser()
     out = Path(args.out)
     return cmd_run(parser.parse_args(["run", "--scenario", "walk_by", "--tracker", DEFAULT_TRACKER, "--seed", "0",
-                                      "--steps", "240", "--json", str(out / "run.json"), "--rrd", str(out / "run.rrd")]))
+                                      "--steps", "240", "--json", str(out / "run.json"), "--rrd", str(out / "run.rrd"),
+                                      "--figures", str(out)]))
+
+
+class HelpFormatter(argparse.HelpFormatter):
+    """Every option's help shows its default, unless the help already says it."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        d = action.default
+        if "default" not in text and d is not None and d is not False and d != argparse.SUPPRESS and action.option_strings:
+            text += " (default: %(default)s)"
+        return text
 
 
 def build_parser() -> argparse.ArgumentParser:
     from hvs_sim import __version__
 
-    parser = argparse.ArgumentParser(prog="hvs-sim", description="Occlusion-robust visual servoing simulator")
+    parser = argparse.ArgumentParser(prog="hvs-sim", description="Occlusion-robust visual servoing simulator",
+                                     formatter_class=HelpFormatter)
     parser.add_argument("--version", action="version", version=f"hvs-sim {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
-    p = sub.add_parser("scene", help="render a scenario open-loop to frames + ground truth")
+    p = sub.add_parser("scene", formatter_class=HelpFormatter, help="render a scenario open-loop to frames + ground truth")
     _add_scene_args(p, mount=True)
-    p.add_argument("--out", default="out/scene")
-    p.add_argument("--format", choices=("mp4", "png"), default="mp4")
+    p.add_argument("--out", default="out/scene", help="output folder")
+    p.add_argument("--format", choices=("mp4", "png"), default="mp4", help="frames as one video or one PNG each")
     p.add_argument("--frames", type=int, default=None, help="number of frames (default: the scenario's duration)")
     p.add_argument("--shadows", action="store_true", help="cast shadows (about 5x slower on a CPU)")
     p.add_argument("--overwrite", action="store_true", help="replace earlier results in a non-empty --out")
     p.set_defaults(func=cmd_scene)
 
-    p = sub.add_parser("run", help="closed-loop servo run: render -> track -> IBVS -> arm")
+    p = sub.add_parser("run", formatter_class=HelpFormatter, help="closed-loop servo run: render -> track -> IBVS -> arm")
     _add_scene_args(p, mount=False)
     from hvs_sim.tracking import TRACKER_NAMES
 
@@ -333,18 +353,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tracker", default=DEFAULT_TRACKER, choices=loop_trackers, metavar="NAME",
                    help=f"one of: {', '.join(loop_trackers)} (default {DEFAULT_TRACKER}; the hybrid_* names are "
                         "its ablations, see hvs_sim/tracking/registry.py)")
-    p.add_argument("--steps", type=int, default=240)
+    p.add_argument("--steps", type=int, default=240, help="control steps at 30 Hz")
     p.add_argument("--json", default=None, help="write the run summary here")
     p.add_argument("--rrd", default=None, help="save a rerun recording here")
     p.add_argument("--spawn", action="store_true", help="open the rerun viewer")
+    p.add_argument("--figures", default=None, metavar="DIR",
+                   help="write frames.png (4 frames with tracked/true/desired outlines) and error.png here")
     p.set_defaults(func=cmd_run)
 
-    p = sub.add_parser("train", help="train the residual regressor or the GRU predictor on simulator data")
+    p = sub.add_parser("train", formatter_class=HelpFormatter, help="train the residual regressor or the GRU predictor on simulator data")
     p.add_argument("what", choices=("residual", "gru"))
     p.add_argument("--sequences", type=int, default=None, help="residual: rendered sequences; gru: tracks per kind")
     p.add_argument("--frames", type=int, default=None, help="residual: frames per sequence; gru: track length")
-    p.add_argument("--epochs", type=int, default=None)
-    p.add_argument("--seed", type=int, default=None)
+    p.add_argument("--epochs", type=int, default=None, help="(default: the training config's)")
+    p.add_argument("--seed", type=int, default=None, help="(default 0)")
     p.add_argument("--out", default="out/weights",
                    help="output folder (default out/weights; --out assets/weights replaces the weights the package ships)")
     p.set_defaults(func=cmd_train)
@@ -352,22 +374,30 @@ def build_parser() -> argparse.ArgumentParser:
     from hvs_sim.camera_model import REALISTIC_PRESET, SENSOR_NAMES
     from hvs_sim.scene.scenarios import PEOPLE_STYLES
 
-    p = sub.add_parser("bench", help="benchmarks: tracking accuracy (track) or closed-loop convergence (servo)")
+    p = sub.add_parser("bench", formatter_class=HelpFormatter, help="benchmarks: tracking accuracy (track) or closed-loop convergence (servo)")
     p.add_argument("what", choices=("track", "servo"))
     p.add_argument("--out", default=None, help="output folder (default: out/bench_<what>)")
     p.add_argument("--smoke", action="store_true", help="a tiny version that runs in about a minute (not a result)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace earlier results (summary.json, table.md, frames.csv, figures) in a non-empty --out")
     p.add_argument("--workers", type=int, default=1, help="processes (episodes and sequences are independent)")
-    p.add_argument("--methods", nargs="+", default=None, help="trackers to compare")
+    from hvs_sim.scene.scenarios import SCENARIO_NAMES
+    from hvs_sim.tracking import TRACKER_NAMES
+
+    p.add_argument("--methods", nargs="+", default=None, metavar="NAME",
+                   help=f"trackers to compare: {', '.join(TRACKER_NAMES)}; servo also ground_truth (the hybrid_* are "
+                        "ablations, see hvs_sim/tracking/registry.py; default: the benchmark's set)")
     p.add_argument("--imagery", default="sim", choices=("sim", "natural"),
                    help="track only: sim = rendered scenes (default); natural = photos and procedural pictures moved "
                         "like a hand-held phone, with a drawn person (hvs_sim/bench/natural.py)")
     p.add_argument("--scenarios", nargs="+", default=None,
-                   help="scenarios; with --imagery natural the kinds: clear walk_by pause partial (default all)")
-    p.add_argument("--sources", nargs="+", default=None,
+                   metavar="NAME", help=f"scenarios: {', '.join(SCENARIO_NAMES)} (default: clear walk_by pause partial "
+                   "two_people for track, walk_by pause for servo); with --imagery natural the kinds: clear walk_by pause "
+                   "partial (default all)")
+    p.add_argument("--sources", nargs="+", default=None, metavar="NAME",
                    help="--imagery natural only: pictures (default all of hvs_sim.bench.natural.NATURAL_SOURCES)")
-    p.add_argument("--mounts", nargs="+", default=None, help="track only, sim imagery: handheld and/or arm")
+    p.add_argument("--mounts", nargs="+", default=None, metavar="MOUNT",
+                   help="track only, sim imagery: handheld and/or arm (default both)")
     p.add_argument("--seeds", nargs="+", type=int, default=None,
                    help="sequence seeds (track; default 100 101 102, natural 500 501) or episode seeds (servo)")
     p.add_argument("--episodes", type=int, default=None,
@@ -379,12 +409,12 @@ def build_parser() -> argparse.ArgumentParser:
                         "benchmarks)")
     p.set_defaults(func=cmd_bench)
 
-    p = sub.add_parser("scenes", help="list scenario presets, camera presets, wall sets and targets")
+    p = sub.add_parser("scenes", formatter_class=HelpFormatter, help="list scenario presets, camera presets, wall sets and targets")
     p.add_argument("--list", action="store_true", help="list them (the default)")
     p.set_defaults(func=cmd_scenes)
 
-    p = sub.add_parser("demo", help="the README's demo on built-in defaults (headless, offline)")
-    p.add_argument("--out", default="out/demo")
+    p = sub.add_parser("demo", formatter_class=HelpFormatter, help="the README's demo on built-in defaults (headless, offline)")
+    p.add_argument("--out", default="out/demo", help="folder for run.json, run.rrd and the figures")
     p.set_defaults(func=cmd_demo)
 
     from hvs_sim.video import add_track_parser  # imported here: video.py imports DEFAULT_TRACKER from this module

@@ -117,3 +117,21 @@ def test_spawn_without_a_display_says_what_to_do_instead(monkeypatch, capsys):
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     _fails(["run", "--steps", "2", "--spawn"], capsys, "no display", "--rrd")
+
+
+@pytest.mark.parametrize("command", ["scene", "run", "bench", "train", "demo", "track"])
+def test_help_shows_defaults(command, capsys):
+    with pytest.raises(SystemExit):
+        build_parser().parse_args([command, "--help"])
+    text = capsys.readouterr().out
+    assert "default" in text
+    if command == "bench":
+        assert "hybrid_paper" in text and "two_people" in text  # the named variants and scenarios are listed
+
+
+def test_run_writes_its_figures(tmp_path, capsys):
+    out = tmp_path / "figs"
+    assert main(["run", "--scenario", "clear", "--tracker", "ground_truth", "--steps", "3", "--width", "320",
+                 "--height", "240", "--figures", str(out)]) == 0
+    assert (out / "frames.png").stat().st_size > 10_000 and (out / "error.png").stat().st_size > 10_000
+    assert "figures:" in capsys.readouterr().out

@@ -104,3 +104,61 @@ def servo_figure(episodes: dict, out: Path, title: str) -> Path:
     fig.savefig(p, dpi=90)
     plt.close(fig)
     return p
+
+
+def _overlay(r) -> np.ndarray:
+    """One closed-loop frame, BGR, half size: tracked outline (thick green) under the true (white)
+    and desired (red) outlines, so all three stay visible where they coincide."""
+    import cv2
+
+    img = cv2.cvtColor(r.frame, cv2.COLOR_RGB2BGR)
+    for pts, col, width in ((r.features, (0, 255, 0), 6), (r.gt_features, (255, 255, 255), 2),
+                            (r.desired, (60, 60, 255), 2)):
+        if np.all(np.isfinite(pts)):
+            cv2.polylines(img, [np.round(pts * 16).astype(np.int32)], True, col, width, cv2.LINE_AA, shift=4)
+    img = cv2.resize(img, (480, 360), interpolation=cv2.INTER_AREA)
+    label = f"t={r.time:.2f}s {r.mode} occl. {r.occlusion:.0%} err {r.error_px:.2f}px"
+    cv2.rectangle(img, (0, 0), (480, 30), (0, 0, 0), -1)
+    cv2.putText(img, label, (8, 21), cv2.FONT_HERSHEY_SIMPLEX, 0.55, (255, 255, 255), 1, cv2.LINE_AA)
+    return img
+
+
+def run_figures(records: list, summary: dict, out: Path, converge_px: float = 0.5) -> list[Path]:
+    """Beside a closed-loop run: `frames.png` (start, occlusion rising, peak occlusion, end, with the
+    tracked / true / desired outlines) and `error.png` (errors over time, predicted steps and true
+    occlusion shaded). Records must keep their frames (run_episode(keep_records=True))."""
+    import cv2
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    occ = np.array([r.occlusion for r in records])
+    picks = [0, int(np.argmax(occ > 0.3)), int(np.argmax(occ)), len(records) - 1]
+    tiles = [_overlay(records[i]) for i in picks]
+    frames = out / "frames.png"
+    cv2.imwrite(str(frames), np.vstack([np.hstack(tiles[:2]), np.hstack(tiles[2:])]))
+    t = np.array([r.time for r in records])
+    fig, ax = plt.subplots(figsize=(9, 3.6))
+    ax.semilogy(t, np.maximum([r.error_px for r in records], 1e-3), color="tab:red",
+                label="ground-truth error to s* (px)")
+    ax.semilogy(t, [max(r.tracker_error_px, 1e-3) for r in records], color="tab:green",
+                label="tracker corner error (px)")
+    ax.axhline(converge_px, ls="--", color="k", lw=0.8, label=f"converged below {converge_px:g} px")
+    pred = np.array([r.mode == "predict" for r in records])
+    ax.fill_between(t, 1e-3, 1e3, where=pred, color="tab:blue", alpha=0.15, step="mid",
+                    label="predicted (scene motion / GRU)")
+    tw = ax.twinx()
+    tw.fill_between(t, 0, 100 * occ, color="grey", alpha=0.3, step="mid", label="true occlusion (%)")
+    tw.set_ylabel("true occlusion (%)")
+    tw.set_ylim(0, 100)
+    ax.set_ylim(1e-2, 1e2)
+    ax.set_xlabel("time (s)")
+    handles = ax.get_legend_handles_labels()
+    extra = tw.get_legend_handles_labels()
+    ax.legend(handles[0] + extra[0], handles[1] + extra[1], fontsize=8, loc="upper right")
+    ax.set_title(f"{summary['scenario']} / {summary['tracker']}: final error {summary['final_error_px']:.2f} px, "
+                 f"{'converged' if summary['converged'] else 'not converged'}")
+    fig.tight_layout()
+    error = out / "error.png"
+    fig.savefig(error, dpi=100)
+    plt.close(fig)
+    return [frames, error]
