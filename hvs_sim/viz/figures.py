@@ -36,23 +36,29 @@ def track_triads(results: dict, config, out: Path) -> list[Path]:
             ax[2].scatter(100 * occ, np.maximum(err, 1e-3), s=5, alpha=0.5, label=m, color=c)
         occ0 = results[first][config.methods[0]]["occlusion"]
         twin = ax[1].twinx()
-        twin.fill_between(np.arange(len(occ0)), 100 * occ0, color="grey", alpha=0.25, step="mid")
+        twin.fill_between(np.arange(len(occ0)), 100 * occ0, color="grey", alpha=0.25, step="mid",
+                          label="true occlusion (%)")
         twin.set_ylim(0, 100)
         twin.set_ylabel("true occlusion (%)")
         for a in ax[[0]]:
-            a.axvline(2.0, ls="--", color="k", lw=0.8)
+            a.axvline(2.0, ls="--", color="k", lw=0.8, label="2 px")
             a.set_xscale("log")
             a.set_xlabel("e_xy (px)")
             a.set_ylabel("fraction of frames ≤ e_xy")
             a.set_xlim(1e-2, 1e3)
         for a in ax[1:]:
-            a.axhline(2.0, ls="--", color="k", lw=0.8)
+            a.axhline(2.0, ls="--", color="k", lw=0.8, label="2 px")
             a.set_yscale("log")
             a.set_ylabel("e_xy (px)")
             a.set_ylim(1e-3, 2e3)
         ax[1].set_xlabel(f"frame ({first[1]}, seed {first[2]})")
         ax[2].set_xlabel("true occlusion (%)")
+        ax[2].set_xlim(-2, 102)
         ax[0].legend(fontsize=8, loc="lower right")
+        h1, l1 = ax[1].get_legend_handles_labels()
+        h2, l2 = twin.get_legend_handles_labels()
+        ax[1].legend([h1[-1], *h2], [l1[-1], *l2], fontsize=8, loc="upper right")  # the methods' colours: left panel
+        ax[2].legend(fontsize=7, loc="upper left", markerscale=3, ncol=2)
         fig.suptitle(f"{scen}: CDF of e_xy | e_xy over time, occlusion shaded | e_xy vs occlusion")
         fig.tight_layout()
         p = Path(out) / f"fig7_{scen}.png"
@@ -65,6 +71,8 @@ def track_triads(results: dict, config, out: Path) -> list[Path]:
 def servo_figure(episodes: dict, out: Path, title: str) -> Path:
     """Error norm over time, image-plane corner trajectories and camera velocity, one example per tracker."""
     trackers = list(episodes)
+    # the velocity panel shows one tracker: the hybrid when it ran, else the first that is not the oracle
+    shown = "hybrid" if "hybrid" in trackers else next((t for t in trackers if t != "ground_truth"), trackers[0])
     fig, ax = plt.subplots(1, 3, figsize=(16, 4.6))
     for t in trackers:
         rec = episodes[t]
@@ -74,15 +82,16 @@ def servo_figure(episodes: dict, out: Path, title: str) -> Path:
         corners = np.array([r["gt_features"] for r in rec])
         for j in range(4):
             ax[1].plot(corners[:, j, 0], corners[:, j, 1], color=c, lw=1, label=t if j == 0 else None)
-        if t == trackers[-1]:
+        if t == shown:
             twist = np.array([r["twist"] for r in rec])
             for j, n in enumerate(("vx", "vy", "vz", "wx", "wy", "wz")):
                 ax[2].plot(time, twist[:, j], label=n)
             occ = np.array([r["occlusion"] for r in rec])
-            ax[0].fill_between(time, 1e-3, np.where(occ > 0, 1e3, 1e-3), color="grey", alpha=0.2, step="mid")
+            ax[0].fill_between(time, 1e-3, np.where(occ > 0, 1e3, 1e-3), color="grey", alpha=0.2, step="mid",
+                               label="target occluded")
     desired = np.array(episodes[trackers[0]][0]["desired"])
     ax[1].scatter(desired[:, 0], desired[:, 1], marker="x", s=80, color="k", label="s*", zorder=5)
-    ax[0].axhline(0.5, ls="--", color="k", lw=0.8)
+    ax[0].axhline(0.5, ls="--", color="k", lw=0.8, label="converged below 0.5 px")
     ax[0].set_yscale("log")
     ax[0].set_ylim(1e-2, 2e2)
     ax[0].set_xlabel("time (s)")
@@ -96,8 +105,8 @@ def servo_figure(episodes: dict, out: Path, title: str) -> Path:
     ax[1].legend(fontsize=8)
     ax[2].set_xlabel("time (s)")
     ax[2].set_ylabel("camera twist (m/s, rad/s)")
-    ax[2].set_title(f"camera velocity ({trackers[-1]})")
-    ax[2].legend(fontsize=8)
+    ax[2].set_title(f"camera velocity ({shown})")
+    ax[2].legend(fontsize=8, ncol=2)
     fig.suptitle(title)
     fig.tight_layout()
     p = Path(out)
