@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import time
+from dataclasses import asdict
 from pathlib import Path
 
 from hvs_sim.loop import LoopConfig, ServoLoop, StepRecord, summarize_run
@@ -25,8 +26,11 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
         if rrd:
             Path(rrd).parent.mkdir(parents=True, exist_ok=True)
         rec = recording("hvs_sim", rrd=rrd, spawn=spawn)
+        setup = {"scenario": scenario.name, "mount": scenario.mount, "seed": scenario.seed, "tracker": tracker,
+                 "camera": scenario.camera.sensor.name, "target": scenario.target_label, "wall": scenario.wall,
+                 "people": scenario.people, "start_offset": list(scenario.start_offset), "loop": asdict(config)}
         logger = RerunLogger(rec, loop.renderer.K, scenario.camera.width, scenario.camera.height,
-                             loop.renderer.target_corners_world())
+                             loop.renderer.target_corners_world(), config=setup, wall=loop.scene.wall_box())
     records = []
     bar = tqdm(total=config.steps, disable=not progress, desc=f"{scenario.name}/{tracker}", unit="step")
     interrupted = completed = False
@@ -48,6 +52,8 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
     finally:
         bar.close()
         if logger is not None:  # a complete recording of the steps so far, whatever stopped the run
+            if records:
+                logger.log_summary(_summary(scenario, tracker, config, records, logger, interrupted))
             logger.rec.flush()
             logger.rec.disconnect()
         if json_path and (completed or (interrupted and records)):
@@ -69,3 +75,26 @@ def _summary(scenario, tracker, config, records, logger, interrupted: bool) -> d
 def _write_summary(json_path, scenario, tracker, config, records, logger, interrupted: bool) -> None:
     Path(json_path).parent.mkdir(parents=True, exist_ok=True)
     Path(json_path).write_text(json.dumps(_summary(scenario, tracker, config, records, logger, interrupted), indent=2))
+    write_steps_csv(records, steps_csv_path(json_path))
+
+
+STEP_COLUMNS = ("step", "time", "mode", "error_px", "tracker_error_px", "occlusion", "vx", "vy", "vz", "wx", "wy", "wz",
+                "gain", "saturated", "fault")
+
+
+def steps_csv_path(json_path) -> Path:
+    """run.json → run_steps.csv: the per-step records beside the summary, readable without rerun."""
+    p = Path(json_path)
+    return p.with_name(p.stem + "_steps.csv")
+
+
+def write_steps_csv(records, path: Path) -> None:
+    import csv
+
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(STEP_COLUMNS)
+        for r in records:
+            w.writerow([r.step, f"{r.time:.4f}", r.mode, f"{r.error_px:.4f}", f"{r.tracker_error_px:.4f}",
+                        f"{r.occlusion:.4f}", *(f"{v:.6f}" for v in r.twist), f"{r.gain:.4f}", int(r.saturated),
+                        r.fault or ""])

@@ -64,13 +64,16 @@ def test_short_run_writes_rrd_with_documented_entities(tmp_path):
     summary, _ = run_episode(make_scenario("walk_by", mount="arm", camera=SMALL), "deep_lk",
                              LoopConfig(steps=5), rrd=str(rrd), progress=False, json_path=str(tmp_path / "run.json"))
     assert rrd.stat().st_size > 0 and (tmp_path / "run.json").exists()
+    rows = (tmp_path / "run_steps.csv").read_text().splitlines()
+    assert rows[0].startswith("step,time,mode,error_px") and len(rows) == 6  # header + one row per step
     for key in ("converged", "steps_to_converge", "final_error_px", "max_error_px_during_occlusion", "lost_steps", "timing"):
         assert key in summary
     assert {"physics", "render", "track", "control", "log"} <= set(summary["timing"])
     paths = set(RrdReader(str(rrd)).store().schema().entity_paths())
     expected = {"/world/camera", "/world/camera/image", "/world/camera/image/tracked", "/world/camera/image/ground_truth",
                 "/world/camera/image/desired", "/world/trajectory", "/world/target", "/world/occluder", "/plots/error_px",
-                "/plots/occlusion", "/plots/mode", "/plots/twist/vx", "/plots/joint_velocity/j1"}
+                "/plots/occlusion", "/plots/mode", "/plots/twist/vx", "/plots/joint_velocity/j1",
+                "/world/wall", "/world/arm", "/run/config", "/run/summary", "/plots/log10_error_px"}
     assert expected <= paths, expected - paths
 
 

@@ -214,6 +214,18 @@ class Scene:
         qdot_max = np.asarray(self.physics.bind(self.rig.actuators).ctrlrange, float)[:, 1]
         return lower, upper, qdot_max
 
+    def wall_box(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(centre, 3×3 orientation, half sizes) of the picture board, for viewers."""
+        g = self.physics.bind(self.wall.body.find("geom", "board"))
+        return g.xpos.copy(), g.xmat.reshape(3, 3).copy(), np.array(self.wall.body.find("geom", "board").size, float)
+
+    def arm_points(self) -> np.ndarray:
+        """World positions of the arm's bodies, base to wrist (an (N, 3) polyline; empty when hand-held)."""
+        if not self.is_arm:
+            return np.zeros((0, 3))
+        bodies = self.rig.arm.mjcf_model.find_all("body")
+        return np.array(self.physics.bind(bodies).xpos, float)
+
     def people_poses(self) -> list[tuple[np.ndarray, np.ndarray]]:
         """(position of the feet, 3×3 orientation) of each person."""
         return [(self.physics.bind(p.body).xpos.copy(), self.physics.bind(p.body).xmat.reshape(3, 3).copy())

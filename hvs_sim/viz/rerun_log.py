@@ -7,9 +7,13 @@ Entity paths:
   world/trajectory                  the camera centre's path
   world/target                      target outline in 3-D
   world/occluder                    the people in front of it (boxes around their bodies)
-  plots/error_px, plots/tracker_error_px, plots/occlusion, plots/mode
+  world/wall, world/arm             the picture board (box) and the arm (polyline through its bodies)
+  run/config, run/summary           the run's set-up and, at the end, its summary (JSON text)
+  plots/error_px, plots/tracker_error_px, plots/log10_error_px, plots/occlusion, plots/mode
   plots/twist/{vx,vy,vz,wx,wy,wz}, plots/joint_velocity/j{1..6}
 Library code takes a RecordingStream; logging never raises into the loop.
+2-D overlays are shifted by half a pixel: hvs_sim puts pixel centres at integers (OpenCV), rerun's
+image space at +0.5.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from hvs_sim.loop import StepRecord
 
 log = logging.getLogger(__name__)
 MODE_CODE = {"align": 0, "predict": 1, "lost": 2, "fault": 3}
+RERUN_PIXEL_OFFSET = 0.5  # hvs_sim pixel (OpenCV, centres at integers) → rerun image space (centres at +0.5)
 TWIST = ("vx", "vy", "vz", "wx", "wy", "wz")
 
 
@@ -41,9 +46,12 @@ def blueprint() -> rrb.Blueprint:
                          rrb.Spatial3DView(name="world", origin="world")),
             rrb.Vertical(
                 rrb.TimeSeriesView(name="pixel error", origin="plots", contents=["plots/error_px", "plots/tracker_error_px"]),
+                rrb.TimeSeriesView(name="log10 pixel error (sub-pixel phase)", origin="plots",
+                                   contents=["plots/log10_error_px", "plots/log10_tracker_error_px"]),
                 rrb.TimeSeriesView(name="occlusion and mode", origin="plots", contents=["plots/occlusion", "plots/mode"]),
                 rrb.TimeSeriesView(name="camera twist", origin="plots/twist"),
                 rrb.TimeSeriesView(name="joint velocities", origin="plots/joint_velocity"),
+                rrb.TextDocumentView(name="run", origin="run"),
             ),
             column_shares=[3, 2],
         ),
@@ -63,11 +71,33 @@ def recording(application_id: str = "hvs_sim", rrd: str | None = None, spawn: bo
 class RerunLogger:
     """Logs StepRecords to a RecordingStream. Failures are logged once and then ignored."""
 
-    def __init__(self, rec: rr.RecordingStream, K: np.ndarray, width: int, height: int, target_world: np.ndarray | None = None):
+    def __init__(self, rec: rr.RecordingStream, K: np.ndarray, width: int, height: int, target_world: np.ndarray | None = None,
+                 config: dict | None = None, wall: tuple | None = None):
+        """config: the run's set-up, logged as text at run/config; wall: (centre, R, half sizes) of the board."""
         self.rec = rec
         self.failed = False
         self.path: list[np.ndarray] = []
         self._guard(self._static, K, width, height, target_world)
+        if config is not None:
+            self._guard(self._text, "run/config", "set-up", config)
+        if wall is not None:
+            self._guard(self._wall, *wall)
+
+    def _text(self, path: str, title: str, data: dict) -> None:
+        import json
+
+        body = json.dumps(data, indent=2, default=str)
+        self.rec.log(path, rr.TextDocument(f"# {title}\n\n```json\n{body}\n```", media_type=rr.MediaType.MARKDOWN),
+                     static=True)
+
+    def _wall(self, centre, R, half_sizes) -> None:
+        self.rec.log("world/wall", rr.Boxes3D(centers=[centre], half_sizes=[half_sizes],
+                                              quaternions=[rr.Quaternion(xyzw=_quat_xyzw(R))], colors=[225, 215, 190],
+                                              fill_mode=rr.components.FillMode.Solid), static=True)
+
+    def log_summary(self, summary: dict) -> None:
+        """The run's summary, at run/summary (written at the end, or when the run was interrupted)."""
+        self._guard(self._text, "run/summary", "summary", summary)
 
     def _guard(self, fn, *args) -> None:
         if self.failed:
@@ -91,6 +121,10 @@ class RerunLogger:
         rec.log("plots/tracker_error_px", rr.SeriesLines(names="tracker corner error (px)", colors=[50, 160, 50]), static=True)
         rec.log("plots/occlusion", rr.SeriesLines(names="true occlusion", colors=[120, 120, 120]), static=True)
         rec.log("plots/mode", rr.SeriesPoints(names="mode (0 align, 1 predict, 2 lost, 3 fault)"), static=True)
+        rec.log("plots/log10_error_px", rr.SeriesLines(names="log10 ground-truth error (px)", colors=[220, 50, 50]),
+                static=True)
+        rec.log("plots/log10_tracker_error_px", rr.SeriesLines(names="log10 tracker error (px)", colors=[50, 160, 50]),
+                static=True)
 
     def log_step(self, r: StepRecord) -> None:
         self._guard(self._step, r)
@@ -105,18 +139,23 @@ class RerunLogger:
         if r.frame is not None:
             rec.log("world/camera/image", rr.Image(r.frame).compress(jpeg_quality=85))
         closed = lambda p: [np.vstack([p, p[:1]])]
+        off = RERUN_PIXEL_OFFSET
         if np.all(np.isfinite(r.features)):
-            rec.log("world/camera/image/tracked", rr.LineStrips2D(closed(r.features), colors=[0, 255, 0]))
-        rec.log("world/camera/image/ground_truth", rr.LineStrips2D(closed(r.gt_features), colors=[255, 255, 255]))
-        rec.log("world/camera/image/desired", rr.LineStrips2D(closed(r.desired), colors=[255, 60, 60]))
+            rec.log("world/camera/image/tracked", rr.LineStrips2D(closed(r.features + off), colors=[0, 255, 0], radii=1.5))
+        rec.log("world/camera/image/ground_truth", rr.LineStrips2D(closed(r.gt_features + off), colors=[255, 255, 255]))
+        rec.log("world/camera/image/desired", rr.LineStrips2D(closed(r.desired + off), colors=[255, 60, 60]))
+        if r.arm is not None and len(r.arm):
+            rec.log("world/arm", rr.LineStrips3D([r.arm], colors=[90, 90, 110], radii=0.03))
         if r.people:
             centers = [p + R @ np.array([0.0, 0.0, 0.9]) for p, R in r.people]
             quats = [rr.Quaternion(xyzw=_quat_xyzw(R)) for _, R in r.people]
             rec.log("world/occluder", rr.Boxes3D(centers=centers, half_sizes=[[0.15, 0.3, 0.9]] * len(centers),
                                                  quaternions=quats, colors=[200, 120, 80]))
         rec.log("plots/error_px", rr.Scalars(r.error_px))
+        rec.log("plots/log10_error_px", rr.Scalars(np.log10(max(r.error_px, 1e-3))))
         if np.isfinite(r.tracker_error_px):
             rec.log("plots/tracker_error_px", rr.Scalars(r.tracker_error_px))
+            rec.log("plots/log10_tracker_error_px", rr.Scalars(np.log10(max(r.tracker_error_px, 1e-3))))
         rec.log("plots/occlusion", rr.Scalars(r.occlusion))
         rec.log("plots/mode", rr.Scalars(MODE_CODE.get(r.mode, 3)))
         for name, v in zip(TWIST, r.twist):
