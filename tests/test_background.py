@@ -3,7 +3,6 @@
 import cv2
 import numpy as np
 import pytest
-from test_learned import ROI, photo, shift
 
 from hvs_sim.errors import HvsError
 from hvs_sim.tracking import make_tracker
@@ -13,14 +12,19 @@ from hvs_sim.tracking.occlusion import occlusion_fraction
 from hvs_sim.tracking.warp import apply, similarity
 
 H, W = 480, 640
+ROI = (145, 105, 140, 90)  # inside the first flag of the flag_frame fixture (conftest.py)
 
 
 def warp(img, A):
     return cv2.warpAffine(img, A[:2], (img.shape[1], img.shape[0]), flags=cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT)
 
 
-def test_background_motion_recovers_a_similarity_past_a_moving_occluder():
-    grey = cv2.cvtColor(photo(), cv2.COLOR_RGB2GRAY)
+def shift(img, dx, dy):
+    return warp(img, np.array([[1.0, 0, dx], [0, 1, dy], [0, 0, 1]]))
+
+
+def test_background_motion_recovers_a_similarity_past_a_moving_occluder(flag_frame):
+    grey = cv2.cvtColor(flag_frame, cv2.COLOR_RGB2GRAY)
     grey = cv2.resize(grey, None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
     c = np.array([grey.shape[1], grey.shape[0]]) / 2
     bg = BackgroundMotion()
@@ -42,10 +46,10 @@ def test_background_motion_recovers_a_similarity_past_a_moving_occluder():
 
 
 @pytest.mark.parametrize("x0", [100, 120, 200])
-def test_background_motion_measures_a_narrow_strip_of_scene_beside_an_occluder(x0):
+def test_background_motion_measures_a_narrow_strip_of_scene_beside_an_occluder(x0, flag_frame):
     # a person filling all but a 40 work px strip through the flags, moving 2 px on its own while
     # the scene moves by d: the few corners in the strip measure d over the whole view
-    grey = cv2.resize(cv2.cvtColor(photo(), cv2.COLOR_RGB2GRAY), None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
+    grey = cv2.resize(cv2.cvtColor(flag_frame, cv2.COLOR_RGB2GRAY), None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
     h, w = grey.shape
     d = np.random.default_rng(x0).uniform(-1, 1, 2)
 
@@ -118,8 +122,8 @@ def hidden_target_error(tr, img: np.ndarray, offset: np.ndarray) -> float:
     return float(np.linalg.norm(tk.center - (roi_center(ROI) + offset)))
 
 
-def test_hidden_target_follows_unpredictable_camera_motion_from_its_surroundings():
-    img, path = photo(), random_walk(3)
+def test_hidden_target_follows_unpredictable_camera_motion_from_its_surroundings(flag_frame):
+    img, path = flag_frame, random_walk(3)
     errors = {}
     for background in (True, False):
         tr = tracking_on(img, path, background=background)
@@ -138,11 +142,11 @@ def test_colour_occlusion_sees_a_cover_of_the_same_grey_level():
     assert occlusion_fraction(covered, red) == pytest.approx(0.5, abs=0.02)
 
 
-def test_estimate_is_re_anchored_when_the_view_returns_after_a_blackout():
+def test_estimate_is_re_anchored_when_the_view_returns_after_a_blackout(flag_frame):
     """A person filling the whole view: the predictor alone drifts; the first frames with the wall
     visible again (target still covered) are measured against aligned keyframes, not chained on
     from the drifted estimate."""
-    img, path = photo(), random_walk(5)
+    img, path = flag_frame, random_walk(5)
     errors = {}
     for reanchor in (True, False):
         tr = tracking_on(img, path, reanchor=reanchor)

@@ -16,7 +16,7 @@ from hvs_sim.tracking.nets.residual import RESIDUAL_PT, ResidualRegressor, load_
 from hvs_sim.tracking.predictors import ConstantVelocityPredictor
 
 H, W = 480, 640
-ROI = (145, 105, 140, 90)  # inside the first flag of flag_frame()
+ROI = (145, 105, 140, 90)  # inside the first flag of the flag_frame fixture (conftest.py)
 
 
 def test_residual_regressor_is_exactly_fig4():
@@ -59,20 +59,13 @@ def test_weight_loading_errors_are_clear(tmp_path):
         load_gru(tmp_path / "junk.pt")
 
 
-def photo():
-    """Flags on a board, the domain the regressor was trained on (see test_tracking.flag_frame)."""
-    from test_tracking import flag_frame
-
-    return flag_frame()
-
-
 def shift(img, dx, dy):
     M = np.float32([[1, 0, dx], [0, 1, dy]])
     return cv2.warpAffine(img, M, (W, H), flags=cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT)
 
 
-def test_routing_occluded_frame_goes_to_predict_clean_frame_to_align():
-    img = photo()
+def test_routing_occluded_frame_goes_to_predict_clean_frame_to_align(flag_frame):
+    img = flag_frame
     tr = make_tracker("hybrid")
     tr.init(img, ROI)
     assert tr.update(img).mode == "align"
@@ -88,8 +81,8 @@ def test_routing_occluded_frame_goes_to_predict_clean_frame_to_align():
 # (0.5 px); the GRU, trained on hand-held drift and servo motion that slow down, damps the velocity
 # it extrapolates, so we ask for ≤ 10 px and less than half of what holding the last position gives
 @pytest.mark.parametrize("predictor,bound", [("constant_velocity", 0.5), ("gru", 10.0)])
-def test_full_occlusion_of_a_moving_target_keeps_the_prediction_close(predictor, bound):
-    img = photo()
+def test_full_occlusion_of_a_moving_target_keeps_the_prediction_close(predictor, bound, flag_frame):
+    img = flag_frame
     tr = make_tracker("hybrid", predictor=predictor, background=False)  # the predictor alone
     tr.init(img, ROI)
     v = np.array([1.2, -0.6])  # px per frame
@@ -110,8 +103,8 @@ def test_full_occlusion_of_a_moving_target_keeps_the_prediction_close(predictor,
     assert errs[-1] < 0.5 * hold_error
 
 
-def test_predict_path_is_bounded_then_lost_and_still():
-    img = photo()
+def test_predict_path_is_bounded_then_lost_and_still(flag_frame):
+    img = flag_frame
     tr = make_tracker("hybrid", predictor="constant_velocity", max_predict_frames=5)  # blank: no background either
     tr.init(img, ROI)
     for k in range(1, 6):
@@ -135,13 +128,13 @@ def test_constant_velocity_rollout_is_exact_on_a_line():
 
 
 @pytest.mark.parametrize("name", ["deep_lk_residual", "hybrid"])
-def test_new_trackers_keep_the_contract_on_bad_input(name):
+def test_new_trackers_keep_the_contract_on_bad_input(name, flag_frame):
     tr = make_tracker(name)
     with pytest.raises(HvsError):
-        tr.update(photo())
+        tr.update(flag_frame)
     with pytest.raises(HvsError):
-        tr.init(photo()[..., 0], ROI)
-    tr.init(photo(), ROI)
+        tr.init(flag_frame[..., 0], ROI)
+    tr.init(flag_frame, ROI)
     tk = tr.update(np.zeros((H, W, 3), np.uint8))
     assert tk.mode in ("predict", "lost") and np.isfinite(tk.pose).all()
 

@@ -201,16 +201,7 @@ def make_scenario(name: str, mount: str = "handheld", seed: int = 0, **overrides
     return Scenario(name=name, mount=mount, seed=seed, **{**_PRESETS[name], **overrides})
 
 
-def with_seed(scenario: Scenario, seed: int) -> Scenario:
-    return dataclasses.replace(scenario, seed=seed)
-
-
 # ---------------------------------------------------------------- occluder motion
-
-
-def smoothstep(x):
-    x = np.clip(x, 0.0, 1.0)
-    return x * x * (3 - 2 * x)
 
 
 def occluder_lateral(plan: OccluderPlan, t: float, body_half: float, target_half: float) -> float:
