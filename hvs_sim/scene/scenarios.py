@@ -7,7 +7,6 @@ to the target, so the occlusion profile holds whatever the start pose.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
