@@ -21,6 +21,9 @@ from hvs_sim.scene.textures import TEXTURE_SETS, natural_texture
 # Reference camera: 1.3 m high, looking along world +X, upright. Its OpenCV rotation has
 # x_cam = −Y_world (right), y_cam = −Z_world (down), z_cam = +X_world (forward).
 REFERENCE_POSITION = np.array([0.40, 0.0, 1.30])
+IK_CONTINUATION_STEPS = 4  # IK solves from the reference pose to the start pose (stays on the home branch)
+WALK_BOB_M, WALK_STEP_HZ = 0.01, 1.0  # a walking person's vertical bob (m) and its rate
+ROOM_WALL_BEHIND_M = 0.25  # the room's back wall behind the flag board (m)
 REFERENCE_R_CV = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 PHYSICS_SUBSTEPS = 20  # physics steps per frame (timestep = 1 / (fps · substeps))
 WALL_SEED_STRIDE = 1000  # texture seed of wall slot k: stride · scenario seed + k
@@ -58,7 +61,7 @@ class Scene:
         room_mat = root.asset.add("material", name="room", texture=room_tex, texrepeat=[6, 3])
         # the room's back wall, a little behind the flag board
         root.worldbody.add("geom", name="room_wall", type="box", size=[0.02, 3.0, 1.5],
-                           pos=[REFERENCE_POSITION[0] + scenario.standoff + 0.25, 0, 1.5], material=room_mat,
+                           pos=[REFERENCE_POSITION[0] + scenario.standoff + ROOM_WALL_BEHIND_M, 0, 1.5], material=room_mat,
                            contype=0, conaffinity=0)
 
         self.wall = FlagWall(root, *wall_pictures(scenario), target_width=scenario.target_width)
@@ -131,7 +134,7 @@ class Scene:
             # walkers pass in profile; a hovering person has stopped and turned to face the camera
             facing = plan.kind == "hover" and t >= plan.t_cross
             lat = occluder_lateral(plan, t, Person.HALF_WIDTH if plan.kind == "hover" else Person.HALF_DEPTH, target_half)
-            bob = 0.0 if facing else 0.01 * abs(math.sin(2 * math.pi * t))
+            bob = 0.0 if facing else WALK_BOB_M * abs(math.sin(2 * math.pi * WALK_STEP_HZ * t))
             pos = np.array([foot[0], foot[1], 0.0]) + lateral_axis * lat + np.array([0, 0, bob])
             fwd = -horiz if facing else plan.direction * lateral_axis
             R = np.column_stack([fwd, np.cross([0, 0, 1.0], fwd), [0, 0, 1.0]])
@@ -263,7 +266,7 @@ class Scene:
             # the solution stays on the home branch and every solve starts close to its answer
             q_start = _home_configuration(self)
             ref = self.reference_pose()
-            for alpha in (0.25, 0.5, 0.75, 1.0):
+            for alpha in np.linspace(0.0, 1.0, IK_CONTINUATION_STEPS + 1)[1:]:
                 offset = alpha * np.asarray(self.scenario.start_offset, float)
                 q_start = self.solve_ik(*offset_pose(*ref, offset), q0=q_start)
             self.physics.reset()

@@ -66,6 +66,9 @@ class BackgroundConfig:
 
 
 COMPETING_SHARE = 0.2  # a second consensus this large (of the first's inliers) competes with it
+LK_MAX_ITERATIONS, LK_EPS = 30, 0.01  # pyramidal LK stopping rule per level (OpenCV's defaults)
+RANSAC_MAX_ITERS, RANSAC_REFINE_ITERS = 500, 10  # enough for 30 % inliers among 200 corners
+CORNER_BLOCK_SIZE = 7  # goodFeaturesToTrack's structure-tensor window (work px)
 
 
 def apply_h(M: np.ndarray, pts: np.ndarray) -> np.ndarray:
@@ -74,7 +77,7 @@ def apply_h(M: np.ndarray, pts: np.ndarray) -> np.ndarray:
 
 def _lk_params(c: BackgroundConfig) -> dict:
     return {"winSize": (c.window, c.window), "maxLevel": c.levels,
-            "criteria": (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 30, 0.01)}
+            "criteria": (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, LK_MAX_ITERATIONS, LK_EPS)}
 
 
 def _lk_checked(src: np.ndarray, dst: np.ndarray, start: np.ndarray, c: BackgroundConfig
@@ -93,7 +96,7 @@ def _lk_checked(src: np.ndarray, dst: np.ndarray, start: np.ndarray, c: Backgrou
 
 def _ransac(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig) -> tuple[np.ndarray | None, np.ndarray]:
     S, mask = cv2.estimateAffinePartial2D(src, dst, method=cv2.RANSAC, ransacReprojThreshold=c.ransac_px,
-                                          maxIters=500, refineIters=10)
+                                          maxIters=RANSAC_MAX_ITERS, refineIters=RANSAC_REFINE_ITERS)
     if S is None or not np.all(np.isfinite(S)):
         return None, np.zeros(len(src), bool)
     return np.vstack([S, [0.0, 0.0, 1.0]]), mask[:, 0].astype(bool)
@@ -166,7 +169,7 @@ class BackgroundMotion:
     def step(self, src: np.ndarray, grey: np.ndarray, frames: int = 1) -> np.ndarray | None:
         """Similarity from `src` to `grey` (`frames` apart), or None when the scene gives no trustworthy one."""
         c = self.config
-        pts = cv2.goodFeaturesToTrack(src, c.max_points, c.quality, c.min_distance, blockSize=7)
+        pts = cv2.goodFeaturesToTrack(src, c.max_points, c.quality, c.min_distance, blockSize=CORNER_BLOCK_SIZE)
         if pts is None or len(pts) < c.min_inliers:
             return None
         pts = pts[:, 0].astype(np.float32)
@@ -237,7 +240,7 @@ class KeyframeAnchor:
         c = self.config
         none = (np.empty((0, 2), np.float32), np.empty((0, 2), np.float32))
         if k.corners is None:
-            pts = cv2.goodFeaturesToTrack(k.image, c.anchor_points, c.quality, c.min_distance, blockSize=7)
+            pts = cv2.goodFeaturesToTrack(k.image, c.anchor_points, c.quality, c.min_distance, blockSize=CORNER_BLOCK_SIZE)
             k.corners = none[0] if pts is None else pts[:, 0].astype(np.float32)
         to_ref = np.linalg.inv(k.A)  # keyframe → reference
         P = predicted @ to_ref  # keyframe → grey, as predicted
