@@ -100,7 +100,8 @@ def cmd_run(args) -> int:
     scenario = _scenario_from_args(args)
     config = LoopConfig(steps=args.steps)
     summary, records = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,
-                                   keep_records=bool(args.rrd or args.spawn or args.figures))
+                                   keep_records=bool(args.rrd or args.spawn or args.figures),
+                                   tracker_settings=parse_settings(args.set))
     brief = {k: summary[k] for k in ("converged", "steps_to_converge", "final_error_px", "max_error_px_during_occlusion",
                                      "lost_steps", "predict_steps", "fault_steps", "steps_per_second")}
     print(json.dumps(brief, indent=2))
@@ -115,6 +116,27 @@ def cmd_run(args) -> int:
         viewer = "rerun" if shutil.which("rerun") else str(Path(sys.executable).parent / "rerun")
         print(f"recording: {args.rrd}  (open it with: {viewer} {args.rrd})")
     return 0
+
+
+def add_settings_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="a tracker setting (a field of its config; repeat for more), e.g. --set "
+                        "residual_weights=out/weights/residual.pt --set gru_weights=out/weights/gru.pt; an unknown "
+                        "key is an error that lists the accepted ones")
+
+
+def parse_settings(items: list[str]) -> dict:
+    """KEY=VALUE strings → make_tracker keywords; VALUE is read as JSON (numbers, true/false, null) or else text."""
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ConfigError(f"--set takes KEY=VALUE, got {item!r}")
+        try:
+            out[key.strip()] = json.loads(value)
+        except json.JSONDecodeError:
+            out[key.strip()] = value
+    return out
 
 
 def _check_viewer() -> None:
@@ -357,6 +379,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", default=None, help="write the run summary here")
     p.add_argument("--rrd", default=None, help="save a rerun recording here")
     p.add_argument("--spawn", action="store_true", help="open the rerun viewer")
+    add_settings_option(p)
     p.add_argument("--figures", default=None, metavar="DIR",
                    help="write frames.png (4 frames with tracked/true/desired outlines) and error.png here")
     p.set_defaults(func=cmd_run)

@@ -79,6 +79,8 @@ class ServoLoop:
         self.scenario, self.tracker_name, self.config = scenario, tracker, config
         self.scene = Scene(scenario)
         self.renderer = Renderer(self.scene)
+        if tracker == "ground_truth" and tracker_config:
+            raise ConfigError(f"ground_truth takes no tracker settings, got {sorted(tracker_config)}")
         self.tracker = None if tracker == "ground_truth" else make_tracker(tracker, **tracker_config)
         lower, upper, qdot_max = self.scene.joint_limits()
         self.limits = ArmLimits(qdot_max=qdot_max, q_lower=lower, q_upper=upper)

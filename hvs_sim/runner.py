@@ -13,13 +13,14 @@ from hvs_sim.scene.scenarios import Scenario
 
 def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = None, rrd: str | None = None,
                 spawn: bool = False, progress: bool = True, json_path: str | None = None,
-                keep_records: bool = False) -> tuple[dict, list[StepRecord]]:
-    """Run and summarise one episode; write an .rrd and/or JSON when paths are given."""
+                keep_records: bool = False, tracker_settings: dict | None = None) -> tuple[dict, list[StepRecord]]:
+    """Run and summarise one episode; write an .rrd and/or JSON when paths are given.
+    tracker_settings: the tracker's config fields (make_tracker keywords)."""
     from tqdm.auto import tqdm
 
     logger = None
     config = LoopConfig() if config is None else config
-    loop = ServoLoop(scenario, tracker, config)
+    loop = ServoLoop(scenario, tracker, config, **(tracker_settings or {}))
     if rrd or spawn:
         from hvs_sim.viz.rerun_log import RerunLogger, recording
 

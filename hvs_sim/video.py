@@ -45,7 +45,7 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
-from hvs_sim.cli import DEFAULT_TRACKER
+from hvs_sim.cli import DEFAULT_TRACKER, add_settings_option, parse_settings
 from hvs_sim.errors import ConfigError, InputError, choice_error
 from hvs_sim.outputs import check_output_file, prepare_out_dir
 from hvs_sim.tracking import TRACKER_NAMES, Track, make_tracker
@@ -328,15 +328,16 @@ class TrackResult:
 
 
 def track_footage(path, roi, tracker: str = DEFAULT_TRACKER, out="out/track", rrd=None,
-                  progress: bool = True) -> TrackResult:
-    """Check every input, then stream the frames through the tracker into the outputs."""
+                  progress: bool = True, settings: dict | None = None) -> TrackResult:
+    """Check every input, then stream the frames through the tracker into the outputs.
+    settings: the tracker's config fields (make_tracker keywords), e.g. other weights."""
     tracker = check_tracker_name(tracker)
     roi = parse_roi(roi) if isinstance(roi, str) else roi
     source = open_frames(path)
     try:
         roi = check_roi(roi, source.first.shape[:2])
         out, rrd = prepare_out_dir(out), prepare_rrd(rrd)
-        method = make_tracker(tracker)
+        method = make_tracker(tracker, **(settings or {}))
         outputs = TrackOutputs(out, source.size, source.fps, rrd)
         result = TrackResult(tracker, outputs.paths)
         bar = tqdm(total=source.count, unit="frame", desc=f"track/{tracker}", disable=not progress)
@@ -390,12 +391,14 @@ def add_track_parser(sub) -> None:
     p.add_argument("--out", default="out/track", metavar="DIR",
                    help="folder for track.csv and annotated.mp4, created when missing (default out/track)")
     p.add_argument("--rrd", default=None, metavar="FILE", help="also save a rerun recording here")
+    add_settings_option(p)
     p.set_defaults(func=cmd_track)
 
 
 def cmd_track(args) -> int:
     try:
-        result = track_footage(args.path, args.roi, args.tracker, args.out, args.rrd)
+        result = track_footage(args.path, args.roi, args.tracker, args.out, args.rrd,
+                               settings=parse_settings(args.set))
     except KeyboardInterrupt:  # before the first frame was tracked: nothing was written
         print("hvs-sim: interrupted (Ctrl-C) before tracking started; nothing written", file=sys.stderr)
         return EXIT_INTERRUPTED

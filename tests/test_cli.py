@@ -135,3 +135,16 @@ def test_run_writes_its_figures(tmp_path, capsys):
                  "--height", "240", "--figures", str(out)]) == 0
     assert (out / "frames.png").stat().st_size > 10_000 and (out / "error.png").stat().st_size > 10_000
     assert "figures:" in capsys.readouterr().out
+
+
+def test_tracker_settings_from_the_command_line(tmp_path, capsys):
+    _fails(["run", "--steps", "2", "--set", "occlusion_gat=0.3"], capsys, "accepted", "occlusion_gate")
+    _fails(["run", "--steps", "2", "--set", "novalue"], capsys, "KEY=VALUE")
+    _fails(["run", "--steps", "2", "--tracker", "ground_truth", "--set", "scale=1"], capsys, "no tracker settings")
+    _fails(["run", "--steps", "2", "--tracker", "hybrid_residual", "--set",
+            f"residual_weights={tmp_path / 'missing.pt'}"], capsys, "missing.pt")
+    out = tmp_path / "r.json"
+    assert main(["run", "--scenario", "clear", "--steps", "3", "--width", "320", "--height", "240", "--tracker",
+                 "hybrid", "--set", "predictor=constant_velocity", "--set", "occlusion_gate=0.4", "--json",
+                 str(out)]) == 0
+    assert json.loads(out.read_text())["steps_run"] == 3
