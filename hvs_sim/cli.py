@@ -97,11 +97,18 @@ def cmd_run(args) -> int:
         _check_viewer()
     if args.figures:
         prepare_out_dir(args.figures, "--figures")
+    settings = parse_settings(args.set)
+    if settings:  # refused now, not after the scene is built
+        if args.tracker == "ground_truth":
+            raise ConfigError(f"ground_truth takes no tracker settings, got --set {', '.join(sorted(settings))}")
+        from hvs_sim.tracking import make_tracker
+
+        make_tracker(args.tracker, **settings)
     scenario = _scenario_from_args(args)
     config = LoopConfig(steps=args.steps)
     summary, records = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,
                                    keep_records=bool(args.rrd or args.spawn or args.figures),
-                                   tracker_settings=parse_settings(args.set))
+                                   tracker_settings=settings)
     brief = {k: summary[k] for k in ("converged", "steps_to_converge", "final_error_px", "max_error_px_during_occlusion",
                                      "lost_steps", "predict_steps", "fault_steps", "steps_per_second")}
     print(json.dumps(brief, indent=2))

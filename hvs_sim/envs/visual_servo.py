@@ -25,10 +25,15 @@ import numpy as np
 from gymnasium import spaces
 
 from hvs_sim.control.arm import ArmLimits, camera_twist_to_world, twist_to_joint_velocities
-from hvs_sim.errors import InputError, choice_error
+from hvs_sim.errors import InputError, StateError, choice_error
 from hvs_sim.render.camera import CameraPose
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 from hvs_sim.validate import check_number
+
+
+class ResetNeededError(StateError, gym.error.ResetNeeded):
+    """step() before reset(): an HvsError that gymnasium's wrappers also recognise."""
+
 
 ACTION_TYPES = ("twist", "joint")
 REWARDS = ("pixels", "normalised")
@@ -103,7 +108,7 @@ class VisualServoEnv(gym.Env):
 
     def step(self, action):
         if self.scene is None:
-            raise gym.error.ResetNeeded("call reset() before step()")
+            raise ResetNeededError("call reset() before step()")
         try:
             a = np.asarray(action, np.float64)
         except (TypeError, ValueError):

@@ -1,0 +1,208 @@
+"""Bad inputs across the public API, the CLI and the gym env, each classified: a clear error (an
+HvsError, or exit 2 with a message), a raw traceback (any other exception), or silently accepted.
+
+    python experiments/bad_inputs.py --json experiments/results/bad_inputs.json
+
+The CLI's long work (benchmarks, episodes, rendering) is replaced by stubs, as in tests/test_fuzz.py,
+so only the option handling runs. Targets: 0 raw tracebacks, 0 silent acceptances.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import json
+import math
+import tempfile
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+
+from hvs_sim.errors import HvsError
+
+
+def classify(fn) -> tuple[str, str]:
+    err = io.StringIO()
+    try:
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            out = fn()
+    except HvsError as exc:
+        return "clear", str(exc)[:120]
+    except Exception as exc:  # noqa: BLE001 - what is being counted
+        return "raw traceback", f"{type(exc).__name__}: {exc}"[:120]
+    if isinstance(out, int) and out == 2 and err.getvalue().strip():
+        return "clear", err.getvalue().strip().splitlines()[-1][:120]
+    return "silently accepted", repr(out)[:120]
+
+
+def tracker_cases():
+    from hvs_sim.scene.textures import natural_texture
+    from hvs_sim.tracking import make_tracker
+
+    bad_settings = {
+        "sift": [{"min_inliers": 0}, {"ransac_px": math.nan}, {"ratio": 2.0}, {"ratio": math.nan}, {"bogus": 1}],
+        "ecc": [{"gauss": 4}, {"eps": -1.0}, {"iterations": 0}, {"iterations": 2.5}, {"bogus": 1}],
+        "deep_lk": [{"tau_pix": -1}, {"margin": -5}, {"scale": 5.0}, {"match_threshold": math.nan},
+                    {"reinit_px": math.inf}, {"max_scale_step": 0.0}, {"device": "tpu"}, {"weights": "/nope.npz"}],
+        "hybrid": [{"occlusion_gate": 0.0}, {"max_predict_frames": 0}, {"reacquire_px": -1.0},
+                   {"background_gate_px": math.nan}, {"predictor": "kalman"}, {"occlusion_gat": 0.3},
+                   {"reacquire_frames": 0}, {"gru_weights": "/nope.pt"}],
+        "hybrid_residual": [{"residual_weights": "/nope.pt"}],
+    }
+    for name, settings in bad_settings.items():
+        for s in settings:
+            yield f"make_tracker({name!r}, {s})", lambda name=name, s=s: make_tracker(name, **s)
+    img = natural_texture("brick", 640, 480, 3)
+    roi = (250, 170, 120, 84)
+    frames = {"float in [0, 1]": img / 255.0, "int32": img.astype(np.int32), "grey 2-D": img[..., 0],
+              "NaN": np.where(np.arange(3) == 0, np.nan, img.astype(float)), "a string": "frame",
+              "4 channels": np.dstack([img, img[..., :1]]), "10×10": img[:10, :10]}
+    for label, frame in frames.items():
+        yield f"init with a {label} frame", lambda frame=frame: make_tracker("hybrid").init(frame, roi)
+    for label, r in {"outside": (600, 400, 100, 100), "floats": (10.5, 10, 50, 40), "tiny": (10, 10, 12, 40),
+                     "3 numbers": (1, 2, 3), "None": None}.items():
+        yield f"init with a {label} ROI", lambda r=r: make_tracker("deep_lk").init(img, r)
+
+    def wrong_size():
+        tr = make_tracker("ecc")
+        tr.init(img, roi)
+        return tr.update(img[:400])
+    yield "update with another frame size", wrong_size
+    yield "update before init", lambda: make_tracker("hybrid").update(img)
+    flat = img.copy()
+    flat[150:280, 230:400] = (135, 180, 235)
+    yield "init on plain sky", lambda: make_tracker("hybrid").init(flat, roi)
+
+
+def control_cases():
+    from hvs_sim.control.ibvs import IBVSConfig, IBVSController
+
+    K = np.array([[500.0, 0, 319.5], [0, 500.0, 239.5], [0, 0, 1]])
+    D = np.array([[270.0, 200], [370, 200], [370, 280], [270, 280]])
+    for s in ({"gain": math.nan}, {"gain_inf": 5.0}, {"gain_slope": math.nan}, {"max_linear": math.nan},
+              {"max_angular": -1.0}, {"predict_gain": 2.0}, {"interaction": "x"}, {"dofs": ("vq",)}):
+        yield f"IBVSConfig({s})", lambda s=s: IBVSConfig(**s)
+    yield "IBVSController with a NaN K", lambda: IBVSController(np.full((3, 3), np.nan), D, 0.5)
+    yield "IBVSController with a singular K", lambda: IBVSController(np.zeros((3, 3)), D, 0.5)
+    yield "IBVSController with coincident desired points", lambda: IBVSController(K, np.tile(D[:1], (4, 1)), 0.5)
+    yield "IBVSController with depth 0", lambda: IBVSController(K, D, 0.0)
+    yield "compute with NaN features", lambda: IBVSController(K, D, 0.5).compute(D * np.nan)
+
+
+def env_cases():
+    from hvs_sim.envs.visual_servo import VisualServoEnv
+
+    for s in ({"max_offset": math.nan}, {"max_offset": -0.1}, {"hold_steps": 0}, {"max_linear": math.nan},
+              {"width": 8}, {"converge_px": 0.0}, {"reward": "score"}, {"render_mode": "human"},
+              {"scenario": "nope"}, {"camera": "nope"}):
+        yield f"VisualServoEnv({s})", lambda s=s: VisualServoEnv(**s)
+    env = VisualServoEnv(width=96, height=72)
+    env.reset(seed=0)
+    for label, a in {"NaN": [np.nan] * 6, "3 values": np.zeros(3), "(6, 1)": np.zeros((6, 1)), "text": "go",
+                     "inf": [np.inf] * 6}.items():
+        yield f"env.step({label} action)", lambda a=a: env.step(a)
+    yield "step before reset", lambda: VisualServoEnv(width=96, height=72).step(np.zeros(6))
+
+
+def cli_cases(tmp: Path):
+    from hvs_sim.cli import main
+
+    stubbed = _stub_cli()
+    nonempty = tmp / "full"
+    nonempty.mkdir()
+    (nonempty / "old.png").write_text("x")
+    cases = [
+        ["run", "--mount", "handheld"], ["run", "--json", str(tmp)], ["run", "--steps", "0"], ["run", "--tracker", "kcf"],
+        ["run", "--scenario", "nope"], ["run", "--camera", "nope"], ["run", "--set", "nonsense=1"],
+        ["run", "--set", "novalue"], ["run", "--tracker", "ground_truth", "--set", "scale=1"],
+        ["run", "--width", "8"], ["run", "--fovy", "nan"], ["run", "--spawn"],
+        ["scene", "--frames", "0", "--out", str(tmp / "s")], ["scene", "--out", str(nonempty)],
+        ["scene", "--target-image", "/nope.png", "--out", str(tmp / "s2")],
+        ["bench", "servo", "--episodes", "0", "--out", str(tmp / "b1")],
+        ["bench", "track", "--smoke", "--methods", "hybird", "--out", str(tmp / "b2")],
+        ["bench", "servo", "--mounts", "arm", "--out", str(tmp / "b3")],
+        ["bench", "servo", "--episodes", "2", "--seeds", "1", "--out", str(tmp / "b4")],
+        ["bench", "track", "--episodes", "3", "--out", str(tmp / "b5")],
+        ["bench", "track", "--workers", "0", "--out", str(tmp / "b6")],
+        ["bench", "track", "--out", str(nonempty)],
+        ["bench", "track", "--imagery", "natural", "--sources", "astronaut", "--out", str(tmp / "b7")],
+        ["bench", "track", "--imagery", "natural", "--mounts", "arm", "--out", str(tmp / "b8")],
+        ["bench", "track", "--scenarios", "nope", "--out", str(tmp / "b9")],
+        ["bench", "track", "--seeds", "-1", "--out", str(tmp / "b10")],
+        ["track", "/nope.mp4", "--roi", "1,2,30,30"], ["track", str(tmp), "--roi", "1,2,30,30"],
+        ["train", "gru", "--out", str(nonempty / "old.png")],
+    ]
+    import os
+
+    env = {k: os.environ.pop(k) for k in ("DISPLAY", "WAYLAND_DISPLAY") if k in os.environ}  # --spawn: no display
+    try:
+        for argv in cases:
+            yield "hvs-sim " + " ".join(argv), lambda argv=argv: main(argv)
+    finally:
+        os.environ.update(env)
+        stubbed()
+
+
+def _stub_cli():
+    """Replace the long work behind the commands (as tests/test_fuzz.py does); returns an undo."""
+    from hvs_sim import runner
+    from hvs_sim.bench import natural, servo, track
+    from hvs_sim.render import sequence
+
+    saved = [(m, n, getattr(m, n)) for m, n in ((track, "run_track_bench"), (servo, "run_servo_bench"),
+                                                (natural, "run_natural_bench"), (runner, "run_episode"),
+                                                (sequence, "write_sequence"), (sequence, "iterate_sequence"))]
+
+    def bench(summary):
+        def run(cfg, out, progress=True):
+            Path(out, "summary.json").write_text("{}")
+            return summary
+        return run
+
+    track.run_track_bench = bench({"occlusion_scenarios": {}, "target_set": {}})
+    servo.run_servo_bench = bench({"results": {}})
+    natural.run_natural_bench = bench({"overall": {}, "visible_lt_40": {}, "timing": {}, "per_kind": {}})
+    brief = dict.fromkeys(("converged", "steps_to_converge", "final_error_px", "max_error_px_during_occlusion",
+                           "lost_steps", "predict_steps", "fault_steps", "steps_per_second"), 0)
+    runner.run_episode = lambda *a, **k: (brief, [])
+    sequence.write_sequence = lambda *a, **k: {"frames": 1, "peak_occlusion": 0.0}
+    gt = SimpleNamespace(corners=np.array([[1.0, 1], [9, 1], [9, 9], [1, 9]]), center=np.array([5.0, 5.0]))
+    sequence.iterate_sequence = lambda *a, **k: iter([(np.zeros((16, 16, 3), np.uint8), gt)])
+
+    def undo():
+        for m, n, f in saved:
+            setattr(m, n, f)
+    return undo
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--json", default="experiments/results/bad_inputs.json")
+    args = ap.parse_args()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for area, cases in (("trackers", tracker_cases()), ("control", control_cases()), ("env", env_cases()),
+                            ("cli", cli_cases(Path(tmp)))):
+            for label, fn in cases:
+                outcome, detail = classify(fn)
+                rows.append({"area": area, "input": label, "outcome": outcome, "detail": detail})
+    table = {}
+    for r in rows:
+        t = table.setdefault(r["area"], {"tried": 0, "clear": 0, "raw traceback": 0, "silently accepted": 0})
+        t["tried"] += 1
+        t[r["outcome"]] += 1
+    total = {k: sum(t[k] for t in table.values()) for k in ("tried", "clear", "raw traceback", "silently accepted")}
+    print("| area | tried | clear errors | raw tracebacks | silently accepted |\n|---|---|---|---|---|")
+    for area, t in {**table, "all": total}.items():
+        print(f"| {area} | {t['tried']} | {t['clear']} | {t['raw traceback']} | {t['silently accepted']} |")
+    for r in rows:
+        if r["outcome"] != "clear":
+            print(f"  {r['outcome']}: {r['input']} -> {r['detail']}")
+    Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.json).write_text(json.dumps({"summary": table, "total": total, "cases": rows}, indent=2))
+
+
+if __name__ == "__main__":
+    main()
