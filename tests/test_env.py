@@ -31,7 +31,7 @@ def test_bad_actions_are_refused_and_leave_the_env_usable():
         with pytest.raises(InputError, match=words):
             env.step(bad)
     obs, reward, _, _, info = env.step(np.zeros(6, np.float32))
-    assert np.isfinite(reward) and set(info) >= {"error_px", "converged", "held_steps"}
+    assert np.isfinite(reward) and set(info) >= {"error_px", "occlusion", "converged", "held_steps"}
     assert obs["image"].shape == (72, 96, 3)
 
 

@@ -7,7 +7,8 @@ Reward: minus the ground-truth mean corner error to the desired corners, in pixe
 observation (`reward="pixels"`, the default) or divided by the image diagonal (`reward="normalised"`,
 about −0.5 … 0, easier on a value function).
 Terminated when that error stays below `converge_px` for `hold_steps` steps.
-info: error_px, converged, held_steps.
+info: error_px, occlusion (true share of the target hidden), converged, held_steps. There is no
+tracker inside: the policy sees the image, the reward comes from ground truth.
 
 Defaults worth knowing: scenario "clear" (no person; pass e.g. scenario="walk_by"), a 160×120
 image, the ideal camera. An action must have the action space's shape and finite values (a NaN
@@ -85,7 +86,8 @@ class VisualServoEnv(gym.Env):
         return {"image": frame, "joints": np.concatenate([q, self.scene.joint_velocities])}
 
     def _error(self) -> float:
-        gt = self.renderer.ground_truth(occlusion=False)
+        gt = self.renderer.ground_truth(occlusion=True)
+        self._occlusion = float(gt.occlusion)
         return float(np.linalg.norm(gt.corners - self.desired, axis=1).mean())
 
     def reset(self, *, seed=None, options=None):
@@ -104,7 +106,7 @@ class VisualServoEnv(gym.Env):
         self.limits = ArmLimits(qdot_max=qdot_max, q_lower=lower, q_upper=upper)
         self._held = 0
         err = self._error()
-        return self._obs(), {"error_px": err, "converged": False, "held_steps": 0}
+        return self._obs(), {"error_px": err, "occlusion": self._occlusion, "converged": False, "held_steps": 0}
 
     def step(self, action):
         if self.scene is None:
@@ -129,7 +131,7 @@ class VisualServoEnv(gym.Env):
         err = self._error()
         self._held = self._held + 1 if err < self.converge_px else 0
         terminated = self._held >= self.hold_steps
-        info = {"error_px": err, "converged": terminated, "held_steps": self._held}
+        info = {"error_px": err, "occlusion": self._occlusion, "converged": terminated, "held_steps": self._held}
         return self._obs(), -err * self.reward_scale, terminated, False, info
 
     def render(self):
