@@ -55,7 +55,7 @@ def test_controller_drives_error_down_along_the_feature_error():
 
 def test_adaptive_gain_goes_from_lambda0_to_lambda_inf():
     K = intrinsics(640, 480, 45)
-    ctl = IBVSController(K, np.zeros((4, 2)) + 300, 0.8, IBVSConfig(gain=4.0, gain_inf=0.5, gain_slope=30))
+    ctl = IBVSController(K, np.array([[250.0, 200], [350, 200], [350, 280], [250, 280]]), 0.8, IBVSConfig(gain=4.0, gain_inf=0.5, gain_slope=30))
     assert ctl.gain(0.0) == pytest.approx(4.0)
     assert ctl.gain(10.0) == pytest.approx(0.5, abs=1e-6)
 
@@ -117,4 +117,4 @@ def test_joint_limit_blocks_motion_toward_the_limit():
 
 def test_bad_desired_depth():
     with pytest.raises(ConfigError):
-        IBVSController(intrinsics(640, 480, 45), np.zeros((4, 2)), 0.0)
+        IBVSController(intrinsics(640, 480, 45), np.array([[250.0, 200], [350, 200], [350, 280], [250, 280]]), 0.0)

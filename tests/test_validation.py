@@ -82,3 +82,16 @@ def test_check_number(value, ok):
     else:
         with pytest.raises(HvsError, match="x must be"):
             check_number("x", value, 0, 1)
+
+
+def test_joint_velocities_refuse_nan_instead_of_passing_it_on():
+    from hvs_sim.control.arm import ArmLimits, twist_to_joint_velocities
+
+    limits = ArmLimits(qdot_max=np.ones(6), q_lower=-np.ones(6) * 3, q_upper=np.ones(6) * 3)
+    J = np.eye(6)
+    with pytest.raises(InputError, match="finite"):
+        twist_to_joint_velocities(J, np.full(6, np.nan), np.zeros(6), limits)
+    with pytest.raises(InputError, match="need J"):
+        twist_to_joint_velocities(J, np.zeros(3), np.zeros(6), limits)
+    cmd = twist_to_joint_velocities(J, np.full(6, 0.1), np.zeros(6), limits)
+    assert np.isfinite(cmd.qdot).all()

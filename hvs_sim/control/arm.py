@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hvs_sim.errors import InputError
+
 
 @dataclass(frozen=True)
 class ArmLimits:
@@ -28,9 +30,13 @@ def twist_to_joint_velocities(J: np.ndarray, twist_world: np.ndarray, q: np.ndar
 
     J: (6, n) world-frame Jacobian [linear; angular] of the camera frame; twist_world: (6,).
     """
-    J = np.asarray(J, float)
+    J, twist_world, q = (np.asarray(a, float) for a in (J, twist_world, q))
+    if J.ndim != 2 or J.shape[0] != 6 or twist_world.shape != (6,) or q.shape != (J.shape[1],):
+        raise InputError(f"need J (6, n), twist (6,) and q (n,), got {J.shape}, {twist_world.shape}, {q.shape}")
+    if not (np.isfinite(J).all() and np.isfinite(twist_world).all() and np.isfinite(q).all()):
+        raise InputError("Jacobian, twist and joint positions must be finite (a NaN would reach the actuators)")
     mu2 = limits.damping ** 2
-    qdot = J.T @ np.linalg.solve(J @ J.T + mu2 * np.eye(6), np.asarray(twist_world, float))
+    qdot = J.T @ np.linalg.solve(J @ J.T + mu2 * np.eye(6), twist_world)
     blocked = []
     for i in range(len(q)):
         if (q[i] < limits.q_lower[i] + limits.margin and qdot[i] < 0) or (q[i] > limits.q_upper[i] - limits.margin and qdot[i] > 0):
