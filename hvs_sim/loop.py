@@ -65,7 +65,7 @@ class StepRecord:
     fault: str | None
     timings: dict[str, float]  # ms per stage
     people: list = field(default_factory=list)  # (feet position, orientation) of each person
-    arm: np.ndarray | None = None  # (N, 3) world positions of the arm's bodies, base to wrist (for viewers)
+    arm: tuple | None = None  # (positions (k, 3), orientations (k, 3, 3)) of the arm's meshes (Scene.arm_meshes)
 
 
 class ServoLoop:
@@ -151,7 +151,7 @@ class ServoLoop:
                 tracker_error_px=float(np.linalg.norm(features - gt_features, axis=1).mean()) if fault is None else float("nan"),
                 occlusion=gt.occlusion, twist=twist, qdot=cmd.qdot, q=gt.joint_positions, camera=gt.camera, gain=gain,
                 saturated=sat or cmd.velocity_saturated, limit_blocked=cmd.limit_blocked, fault=fault, timings=timings,
-                people=scene.people_poses(), arm=scene.arm_points())
+                people=scene.people_poses(), arm=scene.arm_poses())
             t0 = time.perf_counter()
             scene.advance(cmd.qdot)
             timings["physics"] = 1e3 * (time.perf_counter() - t0)

@@ -31,7 +31,8 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
                  "camera": scenario.camera.sensor.name, "target": scenario.target_label, "wall": scenario.wall,
                  "people": scenario.people, "start_offset": list(scenario.start_offset), "loop": asdict(config)}
         logger = RerunLogger(rec, loop.renderer.K, scenario.camera.width, scenario.camera.height,
-                             loop.renderer.target_corners_world(), config=setup, wall=loop.scene.wall_box())
+                             loop.renderer.target_corners_world(), config=setup, wall=loop.scene.wall_box(),
+                             arm_meshes=loop.scene.arm_meshes())
     records = []
     bar = tqdm(total=config.steps, disable=not progress, desc=f"{scenario.name}/{tracker}", unit="step")
     interrupted = completed = False

@@ -73,7 +73,7 @@ def test_short_run_writes_rrd_with_documented_entities(tmp_path):
     expected = {"/world/camera", "/world/camera/image", "/world/camera/image/tracked", "/world/camera/image/ground_truth",
                 "/world/camera/image/desired", "/world/trajectory", "/world/target", "/world/occluder", "/plots/error_px",
                 "/plots/occlusion", "/plots/mode", "/plots/twist/vx", "/plots/joint_velocity/j1",
-                "/world/wall", "/world/arm", "/run/config", "/run/summary", "/plots/log10_error_px"}
+                "/world/wall", "/world/arm/mesh_0", "/run/config", "/run/summary", "/plots/log10_error_px"}
     assert expected <= paths, expected - paths
 
 

@@ -6,6 +6,7 @@ import functools
 import math
 from contextlib import contextmanager
 
+import mujoco
 import numpy as np
 from dm_control import mjcf
 from dm_control.utils import inverse_kinematics
@@ -222,12 +223,29 @@ class Scene:
         g = self.physics.bind(self.wall.body.find("geom", "board"))
         return g.xpos.copy(), g.xmat.reshape(3, 3).copy(), np.array(self.wall.body.find("geom", "board").size, float)
 
-    def arm_points(self) -> np.ndarray:
-        """World positions of the arm's bodies, base to wrist (an (N, 3) polyline; empty when hand-held)."""
+    def _arm_mesh_geoms(self) -> list:
         if not self.is_arm:
-            return np.zeros((0, 3))
-        bodies = self.rig.arm.mjcf_model.find_all("body")
-        return np.array(self.physics.bind(bodies).xpos, float)
+            return []
+        return [g for g in self.rig.arm.mjcf_model.find_all("geom")
+                if int(self.physics.bind(g).type) == mujoco.mjtGeom.mjGEOM_MESH]
+
+    def arm_meshes(self) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """(vertices in the geom frame, triangle indices, RGBA) of each mesh of the arm, for viewers."""
+        m, out = self.physics.model, []
+        for g in self._arm_mesh_geoms():
+            b = self.physics.bind(g)
+            k = int(b.dataid)
+            v0, nv, f0, nf = m.mesh_vertadr[k], m.mesh_vertnum[k], m.mesh_faceadr[k], m.mesh_facenum[k]
+            out.append((np.array(m.mesh_vert[v0:v0 + nv]), np.array(m.mesh_face[f0:f0 + nf]), np.array(b.rgba)))
+        return out
+
+    def arm_poses(self) -> tuple[np.ndarray, np.ndarray]:
+        """World position (k, 3) and orientation (k, 3, 3) of each arm mesh (arm_meshes' order) now."""
+        geoms = self._arm_mesh_geoms()
+        if not geoms:
+            return np.zeros((0, 3)), np.zeros((0, 3, 3))
+        b = self.physics.bind(geoms)
+        return np.array(b.xpos, float), np.array(b.xmat, float).reshape(-1, 3, 3)
 
     def people_poses(self) -> list[tuple[np.ndarray, np.ndarray]]:
         """(position of the feet, 3×3 orientation) of each person."""

@@ -7,7 +7,7 @@ Entity paths:
   world/trajectory                  the camera centre's path
   world/target                      target outline in 3-D
   world/occluder                    the people in front of it (boxes around their bodies)
-  world/wall, world/arm             the picture board (box) and the arm (polyline through its bodies)
+  world/wall, world/arm/mesh_*      the picture board (box) and the arm's meshes (posed every step)
   run/config, run/summary           the run's set-up and, at the end, its summary (JSON text)
   plots/error_px, plots/tracker_error_px, plots/log10_error_px, plots/occlusion, plots/mode
   plots/twist/{vx,vy,vz,wx,wy,wz}, plots/joint_velocity/j{1..6}
@@ -72,8 +72,9 @@ class RerunLogger:
     """Logs StepRecords to a RecordingStream. Failures are logged once and then ignored."""
 
     def __init__(self, rec: rr.RecordingStream, K: np.ndarray, width: int, height: int, target_world: np.ndarray | None = None,
-                 config: dict | None = None, wall: tuple | None = None):
-        """config: the run's set-up, logged as text at run/config; wall: (centre, R, half sizes) of the board."""
+                 config: dict | None = None, wall: tuple | None = None, arm_meshes: list | None = None):
+        """config: the run's set-up, logged as text at run/config; wall: (centre, R, half sizes) of the board;
+        arm_meshes: (vertices, triangles, RGBA) per arm mesh (Scene.arm_meshes), posed every step."""
         self.rec = rec
         self.failed = False
         self.path: list[np.ndarray] = []
@@ -82,6 +83,14 @@ class RerunLogger:
             self._guard(self._text, "run/config", "set-up", config)
         if wall is not None:
             self._guard(self._wall, *wall)
+        if arm_meshes:
+            self._guard(self._arm, arm_meshes)
+
+    def _arm(self, meshes) -> None:
+        for k, (verts, faces, rgba) in enumerate(meshes):
+            colour = (np.clip(rgba[:3], 0, 1) * 255).astype(np.uint8)
+            self.rec.log(f"world/arm/mesh_{k}", rr.Mesh3D(vertex_positions=verts, triangle_indices=faces,
+                                                           albedo_factor=colour), static=True)
 
     def _text(self, path: str, title: str, data: dict) -> None:
         import json
@@ -144,8 +153,9 @@ class RerunLogger:
             rec.log("world/camera/image/tracked", rr.LineStrips2D(closed(r.features + off), colors=[0, 255, 0], radii=1.5))
         rec.log("world/camera/image/ground_truth", rr.LineStrips2D(closed(r.gt_features + off), colors=[255, 255, 255]))
         rec.log("world/camera/image/desired", rr.LineStrips2D(closed(r.desired + off), colors=[255, 60, 60]))
-        if r.arm is not None and len(r.arm):
-            rec.log("world/arm", rr.LineStrips3D([r.arm], colors=[90, 90, 110], radii=0.03))
+        if r.arm is not None:
+            for k, (pos, R) in enumerate(zip(*r.arm)):
+                rec.log(f"world/arm/mesh_{k}", rr.Transform3D(translation=pos, mat3x3=R))
         if r.people:
             centers = [p + R @ np.array([0.0, 0.0, 0.9]) for p, R in r.people]
             quats = [rr.Quaternion(xyzw=_quat_xyzw(R)) for _, R in r.people]
