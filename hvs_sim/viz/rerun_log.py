@@ -40,18 +40,21 @@ def _quat_xyzw(R: np.ndarray) -> list[float]:
 
 
 def blueprint() -> rrb.Blueprint:
+    """Camera and 3-D views on the left; on the right three plot panels, each pair of related plots
+    sharing a panel as tabs, so each plot is tall enough for its legend (six lines for the twist)."""
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Vertical(rrb.Spatial2DView(name="camera", origin="world/camera/image"),
-                         rrb.Spatial3DView(name="world", origin="world")),
+                         rrb.Tabs(rrb.Spatial3DView(name="world", origin="world"),
+                                  rrb.TextDocumentView(name="run", origin="run"))),
             rrb.Vertical(
-                rrb.TimeSeriesView(name="pixel error", origin="plots", contents=["plots/error_px", "plots/tracker_error_px"]),
-                rrb.TimeSeriesView(name="log10 pixel error (sub-pixel phase)", origin="plots",
-                                   contents=["plots/log10_error_px", "plots/log10_tracker_error_px"]),
+                rrb.Tabs(rrb.TimeSeriesView(name="log10 pixel error", origin="plots",
+                                            contents=["plots/log10_error_px", "plots/log10_tracker_error_px"]),
+                         rrb.TimeSeriesView(name="pixel error", origin="plots",
+                                            contents=["plots/error_px", "plots/tracker_error_px"])),
                 rrb.TimeSeriesView(name="occlusion and mode", origin="plots", contents=["plots/occlusion", "plots/mode"]),
-                rrb.TimeSeriesView(name="camera twist", origin="plots/twist"),
-                rrb.TimeSeriesView(name="joint velocities", origin="plots/joint_velocity"),
-                rrb.TextDocumentView(name="run", origin="run"),
+                rrb.Tabs(rrb.TimeSeriesView(name="camera twist", origin="plots/twist"),
+                         rrb.TimeSeriesView(name="joint velocities", origin="plots/joint_velocity")),
             ),
             column_shares=[3, 2],
         ),
