@@ -29,7 +29,6 @@ person: the same (source, kind, seed, camera, n_frames, size) gives bit-identica
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 import time
@@ -40,7 +39,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from hvs_sim.bench.pool import run_jobs, write_interrupted
+from hvs_sim.bench.pool import collect_jobs, config_json, write_frames_csv
 from hvs_sim.camera_model import (
     REALISTIC_PRESET,
     SensorModel,
@@ -829,13 +828,8 @@ def run_natural_bench(config: NaturalBenchConfig, out: Path, progress: bool = Tr
     jobs = [(s, k, seed, config.frames, config.methods, config.camera, config.threads)
             for s in config.sources for k in config.kinds for seed in config.seeds]
     results, metas = {}, {}
-    config_json = {k: list(v) if isinstance(v, tuple) else v for k, v in config.__dict__.items()}
-    try:
-        for key, res, meta in run_jobs(_natural_job, jobs, config.workers, "bench natural", "seq", progress):
-            results[key], metas[key] = res, meta
-    except KeyboardInterrupt:
-        write_interrupted(out, list(results), len(jobs), config_json)
-        raise
+    for key, res, meta in collect_jobs(_natural_job, jobs, config, out, "bench natural", "seq", progress):
+        results[key], metas[key] = res, meta
 
     def label(key) -> str:
         return f"{key[0]}/{key[1]}/s{key[2]}"
@@ -843,7 +837,7 @@ def run_natural_bench(config: NaturalBenchConfig, out: Path, progress: bool = Tr
     def visible(r):
         return r["occlusion"] < VISIBLE_BELOW
 
-    summary = {"config": config_json,
+    summary = {"config": config_json(config),
                "per_sequence": {}, "per_kind": {}, "overall": {}, "visible_lt_40": {}, "unoccluded_sequences": {},
                "timing": {}, "generation": {}}
     for key in results:
@@ -868,21 +862,10 @@ def run_natural_bench(config: NaturalBenchConfig, out: Path, progress: bool = Tr
     summary["generation"] = {"sequences": int(gen.size), "median_s": float(np.median(gen)), "max_s": float(gen.max()),
                              "frames_per_sequence": config.frames}
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
-    _write_csv(results, out / "frames.csv")
+    write_frames_csv(results, out / "frames.csv", ("source", "kind", "seed"))
     (out / "table.md").write_text(natural_table(summary))
     natural_figures(results, metas, config, out)
     return summary
-
-
-def _write_csv(results, path: Path) -> None:
-    with open(path, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["source", "kind", "seed", "method", "frame", "error_px", "occlusion", "mode", "ms", "op_estimate"])
-        for (source, kind, seed), per in results.items():
-            for m, r in per.items():
-                for i in range(len(r["error"])):
-                    w.writerow([source, kind, seed, m, i, f"{r['error'][i]:.4f}", f"{r['occlusion'][i]:.4f}", r["mode"][i],
-                                f"{r['ms'][i]:.2f}", f"{r['occ_est'][i]:.3f}"])
 
 
 def natural_table(summary: dict) -> str:

@@ -48,8 +48,36 @@ def run_jobs(fn: Callable, jobs: Sequence, workers: int, desc: str, unit: str, p
         bar.close()
 
 
-def write_interrupted(out: Path, done: list, total: int, config: dict) -> None:
-    """summary.json of a benchmark stopped part-way: which jobs finished, marked interrupted."""
-    Path(out, "summary.json").write_text(json.dumps({
-        "interrupted": True, "completed_jobs": len(done), "total_jobs": total,
-        "completed": [list(k) if isinstance(k, tuple) else k for k in done], "config": config}, indent=2))
+def config_json(config) -> dict:
+    """A frozen benchmark config as JSON-ready fields (tuples as lists)."""
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in config.__dict__.items()}
+
+
+def collect_jobs(fn: Callable, jobs: Sequence, config, out: Path, desc: str, unit: str, progress: bool = True) -> list:
+    """Every job's result (run_jobs with config.workers), in order. Interrupted part-way, it writes
+    out/summary.json marked interrupted with the keys (each result's first item) that finished,
+    then lets the interrupt go on."""
+    done = []
+    try:
+        done.extend(run_jobs(fn, jobs, config.workers, desc, unit, progress))  # keeps what came before an interrupt
+    except KeyboardInterrupt:
+        Path(out, "summary.json").write_text(json.dumps({
+            "interrupted": True, "completed_jobs": len(done), "total_jobs": len(jobs),
+            "completed": [list(r[0]) if isinstance(r[0], tuple) else r[0] for r in done],
+            "config": config_json(config)}, indent=2))
+        raise
+    return done
+
+
+def write_frames_csv(results: dict, path: Path, key_columns: tuple[str, str, str]) -> None:
+    """frames.csv of a tracking benchmark: one row per (sequence key, method, frame)."""
+    import csv
+
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow([*key_columns, "method", "frame", "error_px", "occlusion", "mode", "ms", "op_estimate"])
+        for key, per in results.items():
+            for m, r in per.items():
+                for i in range(len(r["error"])):
+                    w.writerow([*key, m, i, f"{r['error'][i]:.4f}", f"{r['occlusion'][i]:.4f}", r["mode"][i],
+                                f"{r['ms'][i]:.2f}", f"{r['occ_est'][i]:.3f}"])

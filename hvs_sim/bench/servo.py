@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hvs_sim.bench.pool import run_jobs, write_interrupted
+from hvs_sim.bench.pool import collect_jobs, config_json
 from hvs_sim.camera_model import REALISTIC_PRESET
 from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.loop import LoopConfig
@@ -101,14 +101,9 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
             for s in config.scenarios for t in config.trackers for seed in seeds]
     os.environ["HVS_WORKERS"] = str(config.workers)
     episodes, traces = {}, {}
-    config_json = {k: list(v) if isinstance(v, tuple) else v for k, v in config.__dict__.items()}
-    try:
-        for key, summ, trace in run_jobs(_episode, jobs, config.workers, "bench servo", "episode", progress):
-            episodes[key], traces[key] = summ, trace
-    except KeyboardInterrupt:
-        write_interrupted(out, list(episodes), len(jobs), config_json)
-        raise
-    summary = {"config": config_json,
+    for key, summ, trace in collect_jobs(_episode, jobs, config, out, "bench servo", "episode", progress):
+        episodes[key], traces[key] = summ, trace
+    summary = {"config": config_json(config),
                "offset_range": {"low": OFFSET_LOW.tolist(), "high": OFFSET_HIGH.tolist(),
                                 "axes": "dx, dy, dz (m, camera frame), roll (rad)"},
                "results": {}, "episodes": [dict(e) for e in episodes.values()]}

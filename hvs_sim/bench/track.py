@@ -8,7 +8,6 @@ table.md.
 
 from __future__ import annotations
 
-import csv
 import json
 import os
 from dataclasses import dataclass
@@ -16,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hvs_sim.bench.pool import run_jobs, write_interrupted
+from hvs_sim.bench.pool import collect_jobs, config_json, write_frames_csv
 from hvs_sim.bench.sequences import Sequence, make_sequence
 from hvs_sim.camera_model import REALISTIC_PRESET
 from hvs_sim.errors import ConfigError, choice_error
@@ -122,16 +121,9 @@ def run_track_bench(config: TrackBenchConfig, out: Path, progress: bool = True) 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     jobs = [(s, m, seed, config.frames, config.methods, config.camera, config.people) for s in config.scenarios for m in config.mounts for seed in config.seeds]
-    results = {}
     os.environ["HVS_WORKERS"] = str(config.workers)
-    config_json = {k: list(v) if isinstance(v, tuple) else v for k, v in config.__dict__.items()}
-    try:
-        for key, res in run_jobs(_job, jobs, config.workers, "bench track", "seq", progress):
-            results[key] = res
-    except KeyboardInterrupt:
-        write_interrupted(out, list(results), len(jobs), config_json)
-        raise
-    summary = {"config": config_json,
+    results = dict(collect_jobs(_job, jobs, config, out, "bench track", "seq", progress))
+    summary = {"config": config_json(config),
                "per_scenario": {}, "occlusion_scenarios": {}, "target_set": {}, "overall": {}}
     for m in config.methods:
         for s in config.scenarios:
@@ -150,23 +142,12 @@ def run_track_bench(config: TrackBenchConfig, out: Path, progress: bool = True) 
                                         "visible_lt_40": summarize(target, lambda r: r["occlusion"] < 0.4)}
         summary["overall"][m] = summarize([results[k][m] for k in results])
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
-    _write_csv(results, out / "frames.csv")
+    write_frames_csv(results, out / "frames.csv", ("scenario", "mount", "seed"))
     from hvs_sim.viz.figures import track_triads
 
     track_triads(results, config, out)
     (out / "table.md").write_text(track_table(summary))
     return summary
-
-
-def _write_csv(results, path: Path) -> None:
-    with open(path, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["scenario", "mount", "seed", "method", "frame", "error_px", "occlusion", "mode", "ms", "op_estimate"])
-        for (s, mount, seed), per in results.items():
-            for m, r in per.items():
-                for i in range(len(r["error"])):
-                    w.writerow([s, mount, seed, m, i, f"{r['error'][i]:.4f}", f"{r['occlusion'][i]:.4f}", r["mode"][i],
-                                f"{r['ms'][i]:.2f}", f"{r['occ_est'][i]:.3f}"])
 
 
 def track_table(summary: dict) -> str:
