@@ -312,6 +312,31 @@ def _cmd_bench_sim(args) -> int:
     return 0
 
 
+def cmd_sweep(args) -> int:
+    """`hvs-sim sweep SPEC.toml --out DIR` runs a sweep; `hvs-sim sweep report DIR --by a,b` summarises one."""
+    from hvs_sim import sweep
+
+    if args.target[0] == "report":
+        if len(args.target) != 2:
+            raise ConfigError("usage: hvs-sim sweep report DIR --by KEY[,KEY...]")
+        by = [b.strip() for b in (args.by or "").split(",") if b.strip()]
+        print(sweep.report(args.target[1], by), end="")
+        print(f"report: {args.target[1]}/report.md, {args.target[1]}/report.png")
+        return 0
+    if len(args.target) != 1:
+        raise ConfigError("usage: hvs-sim sweep SPEC.toml --out DIR [--engine local|ray] [--address ADDR] [--workers N]")
+    if args.by:
+        raise ConfigError("--by applies to `hvs-sim sweep report DIR`")
+    spec = sweep.check_spec_file(args.target[0])
+    if args.out is None:
+        raise ConfigError("give --out DIR: where the sweep keeps its tasks and results (re-running resumes there)")
+    counts = sweep.run_sweep(spec, args.out, engine=args.engine, workers=args.workers, address=args.address)
+    print(f"{counts['tasks']} tasks: {counts['skipped_done']} already done, {counts['ran']} ran, "
+          f"{counts['errors']} of those failed (recorded with their error)")
+    print(f"results: {args.out}/results.csv (report: hvs-sim sweep report {args.out} --by tracker)")
+    return 0
+
+
 def cmd_scenes(args) -> int:
     """List what a scene can be built from: scenario presets, camera presets, wall sets, targets."""
     from hvs_sim.camera_model import SENSOR_PRESETS
@@ -438,6 +463,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help="sim imagery: how the people look (default textured; plain = the flat figures of earlier "
                         "benchmarks)")
     p.set_defaults(func=cmd_bench)
+
+    p = sub.add_parser("sweep", formatter_class=HelpFormatter,
+                       help="parameter sweeps from a TOML spec, on a local pool or Ray; resumable (hvs_sim/sweep.py)")
+    p.add_argument("target", nargs="+", metavar="SPEC.toml | report DIR",
+                   help="a sweep spec to run, or `report DIR` to summarise a sweep")
+    p.add_argument("--out", default=None, help="sweep folder: tasks/*.json, results.csv (re-running resumes)")
+    p.add_argument("--engine", default="local", choices=("local", "ray"), help="local process pool or Ray")
+    p.add_argument("--address", default=None, help="an existing Ray cluster to join (engine ray; default: start a "
+                   "local instance)")
+    p.add_argument("--workers", type=int, default=1, help="processes (local) or CPUs of a local Ray instance")
+    p.add_argument("--by", default=None, help="report: parameters to group by, comma-separated, e.g. tracker,scenario")
+    p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("scenes", formatter_class=HelpFormatter, help="list scenario presets, camera presets, wall sets and targets")
     p.add_argument("--list", action="store_true", help="list them (the default)")

@@ -1,0 +1,440 @@
+"""Parameter sweeps: a TOML spec names axes, the grid is their product, each cell an independent task.
+
+    kind = "servo"                       # or "track" (open-loop tracking accuracy)
+    [axes]                               # lists; the grid is their product
+    tracker = ["hybrid", "deep_lk"]
+    scenario = ["walk_by", "pause"]
+    seed = [200, 201, 202]
+    gain = [1.0, 2.0]                    # servo: any IBVSConfig or LoopConfig field
+    [fixed]                              # one value each, the same for every task (optional)
+    camera = "phone_handheld"
+
+Tasks run on a local process pool (the benchmarks' bench/pool.py) or on Ray (one CPU per task,
+one torch thread, a local instance or an existing cluster). Each finished task is written
+atomically to DIR/tasks/<id>.json, its id a hash of its parameters, so re-running a spec skips
+what is done and an interrupted sweep loses only the tasks in flight. A task that raises is
+recorded with its error and the sweep goes on. DIR/results.csv holds every task of the spec.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import hashlib
+import itertools
+import json
+import os
+import time
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from hvs_sim.errors import ConfigError, HvsError, choice_error
+from hvs_sim.validate import check_number
+
+KINDS = ("track", "servo")
+ENGINES = ("local", "ray")
+SUCCESS_PX = 1.0  # servo: success = converged and final error ≤ this (as the servo benchmark)
+# metrics that measure time: they differ between runs and engines; every other metric is seeded
+TIMING_METRICS = ("median_ms", "p95_ms", "steps_per_second", "task_seconds")
+
+
+def _loop_fields() -> dict[str, str]:
+    """Servo settings a sweep may vary: IBVSConfig fields ("ibvs-field") and LoopConfig fields ("loop-field")."""
+    from hvs_sim.control.ibvs import IBVSConfig
+    from hvs_sim.loop import LoopConfig
+
+    ibvs = {f.name: "ibvs-field" for f in dataclasses.fields(IBVSConfig)}
+    loop = {f.name: "loop-field" for f in dataclasses.fields(LoopConfig) if f.name not in ("ibvs", "steps", "keep_frames")}
+    return {**ibvs, **loop}
+
+
+def _common_keys() -> dict[str, object]:
+    from hvs_sim.camera_model import SENSOR_NAMES
+    from hvs_sim.scene.scenarios import PEOPLE_STYLES, SCENARIO_NAMES
+
+    return {"tracker": None, "scenario": SCENARIO_NAMES, "camera": SENSOR_NAMES, "people": PEOPLE_STYLES,
+            "seed": "int>=0", "width": "image", "height": "image"}
+
+
+def accepted_keys(kind: str) -> dict[str, object]:
+    """Every key a spec of this kind may name in [axes] or [fixed], with what it accepts."""
+    from hvs_sim.loop import LOOP_TRACKERS
+    from hvs_sim.scene.scenarios import MOUNTS
+    from hvs_sim.tracking import TRACKER_NAMES
+
+    keys = _common_keys()
+    if kind == "track":
+        keys.update(tracker=TRACKER_NAMES, mount=MOUNTS, frames="int>=2")
+    else:
+        keys.update(tracker=LOOP_TRACKERS, steps="int>=1", **_loop_fields())
+    return keys
+
+
+DEFAULTS = {"track": {"tracker": "hybrid", "scenario": "walk_by", "camera": "phone_handheld", "people": "textured",
+                      "seed": 100, "width": 640, "height": 480, "mount": "handheld", "frames": None},
+            "servo": {"tracker": "hybrid", "scenario": "walk_by", "camera": "phone_handheld", "people": "textured",
+                      "seed": 200, "width": 640, "height": 480, "steps": None}}
+
+
+@dataclasses.dataclass(frozen=True)
+class SweepSpec:
+    kind: str
+    axes: dict  # key -> list of values
+    fixed: dict  # key -> value
+
+    def tasks(self) -> list[dict]:
+        """The grid: one parameter dict per cell (defaults, then fixed, then this cell's axis values)."""
+        names = list(self.axes)
+        cells = itertools.product(*(self.axes[n] for n in names))
+        base = {**{k: v for k, v in DEFAULTS[self.kind].items() if v is not None}, **self.fixed}
+        return [{**base, **dict(zip(names, cell))} for cell in cells]
+
+
+def _check_value(kind: str, key: str, value, accepted) -> None:
+    if accepted == "int>=0":
+        check_number(key, value, 0, integer=True)
+    elif accepted == "int>=1":
+        check_number(key, value, 1, integer=True)
+    elif accepted == "int>=2":
+        check_number(key, value, 2, integer=True)
+    elif accepted == "image":
+        check_number(key, value, 64, 4096, integer=True)
+    elif accepted in ("ibvs-field", "loop-field"):
+        from hvs_sim.control.ibvs import IBVSConfig
+        from hvs_sim.loop import LoopConfig
+
+        try:
+            (IBVSConfig if accepted == "ibvs-field" else LoopConfig)(**{key: tuple(value) if isinstance(value, list) else value})
+        except TypeError as exc:
+            raise ConfigError(f"{key}: {exc}") from None
+    elif value not in accepted:
+        raise choice_error(key, value, accepted)
+
+
+def parse_spec(text: str, source: str = "spec") -> SweepSpec:
+    """Validate a TOML sweep spec; every error names the bad key and what is accepted."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{source}: not valid TOML ({exc})") from None
+    unknown = set(data) - {"kind", "axes", "fixed"}
+    if unknown:
+        raise ConfigError(f"{source}: unknown top-level keys {sorted(unknown)}; accepted: kind, axes, fixed")
+    kind = data.get("kind")
+    if kind not in KINDS:
+        raise choice_error("sweep kind", kind, KINDS)
+    axes, fixed = data.get("axes", {}), data.get("fixed", {})
+    if not isinstance(axes, dict) or not isinstance(fixed, dict) or not axes:
+        raise ConfigError(f"{source}: [axes] must be a table with at least one key (and [fixed] a table)")
+    accepted = accepted_keys(kind)
+    for key in (*axes, *fixed):
+        if key not in accepted:
+            raise ConfigError(f"{source}: unknown key {key!r} for a {kind} sweep; accepted: {', '.join(accepted)}")
+    both = set(axes) & set(fixed)
+    if both:
+        raise ConfigError(f"{source}: {sorted(both)} are in both [axes] and [fixed]; give each once")
+    for key, values in axes.items():
+        if not isinstance(values, list) or not values:
+            raise ConfigError(f"{source}: axis {key!r} must be a non-empty list, got {values!r}")
+        if len({json.dumps(v) for v in values}) != len(values):
+            raise ConfigError(f"{source}: axis {key!r} repeats a value: {values}")
+        for v in values:
+            _check_value(kind, key, v, accepted[key])
+    for key, v in fixed.items():
+        _check_value(kind, key, v, accepted[key])
+    return SweepSpec(kind, axes, fixed)
+
+
+def load_spec(path) -> SweepSpec:
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"sweep spec {path} not found (a TOML file: kind, [axes], [fixed])")
+    return parse_spec(path.read_text(), str(path))
+
+
+def task_id(kind: str, params: dict) -> str:
+    """Stable id of a task: a hash of its kind and parameters (the name of its result file)."""
+    return hashlib.sha1(json.dumps({"kind": kind, **params}, sort_keys=True).encode()).hexdigest()[:16]
+
+
+# ------------------------------------------------------------------------------------ tasks
+
+
+def _scenario(params: dict, mount: str):
+    from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+
+    cam = CameraConfig(width=params["width"], height=params["height"], sensor=params["camera"])
+    extra = {}
+    if mount == "arm":
+        from hvs_sim.bench.servo import episode_offset
+
+        extra["start_offset"] = episode_offset(params["seed"])  # as the servo benchmark
+    return make_scenario(params["scenario"], mount=mount, seed=params["seed"], camera=cam, people=params["people"],
+                         **extra)
+
+
+def _track_task(params: dict) -> dict:
+    from hvs_sim.bench.sequences import make_sequence
+    from hvs_sim.bench.track import run_tracker, summarize
+
+    seq = make_sequence(_scenario(params, params["mount"]), n_frames=params.get("frames"))
+    r = run_tracker(params["tracker"], seq)
+    visible = summarize([r], lambda x: x["occlusion"] < 0.4)
+    metrics = summarize([r])
+    metrics["frames_scored"] = metrics.pop("frames")  # `frames` is the task parameter
+    return {**metrics, "visible_pct_le_2px": visible.get("pct_le_2px"),
+            "errors": [round(float(e), 4) for e in r["error"][1:]]}
+
+
+def _servo_task(params: dict) -> dict:
+    from hvs_sim.control.ibvs import IBVSConfig
+    from hvs_sim.loop import LoopConfig
+    from hvs_sim.runner import run_episode
+
+    scen = _scenario(params, "arm")
+    fields = _loop_fields()
+    ibvs = IBVSConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in params.items()
+                         if fields.get(k) == "ibvs-field"})
+    loop = {k: v for k, v in params.items() if fields.get(k) == "loop-field"}
+    steps = params.get("steps") or scen.n_frames + 60  # as the servo benchmark: past the end, to see the recovery
+    summary, _ = run_episode(scen, params["tracker"], LoopConfig(steps=steps, ibvs=ibvs, keep_frames=False, **loop),
+                             progress=False)
+    keys = ("converged", "steps_to_converge", "seconds_to_converge", "final_error_px", "max_error_px_during_occlusion",
+            "lost_steps", "predict_steps", "fault_steps", "steps_per_second")
+    out = {k: summary.get(k) for k in keys}
+    out["success"] = bool(summary["converged"] and summary["final_error_px"] <= SUCCESS_PX)
+    return out
+
+
+def run_task(job: tuple[str, str, dict]) -> dict:
+    """One task, never raising: its metrics, or its error. One torch thread, so a task gives the
+    same numbers on any engine and any number of workers."""
+    import torch
+
+    kind, tid, params = job
+    torch.set_num_threads(1)
+    t0 = time.perf_counter()
+    record = {"id": tid, "kind": kind, "params": params}
+    try:
+        record.update(status="ok", metrics=(_track_task if kind == "track" else _servo_task)(params))
+    except Exception as exc:  # noqa: BLE001 - a failing task is recorded and the sweep goes on
+        record.update(status="error", error=f"{type(exc).__name__}: {exc}")
+    record["task_seconds"] = round(time.perf_counter() - t0, 3)
+    return record
+
+
+# ------------------------------------------------------------------------------------ engines
+
+
+def _write_atomic(path: Path, data: dict) -> None:
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(data, indent=1))
+    os.replace(tmp, path)
+
+
+def _run_local(jobs, workers, on_done, progress) -> None:
+    from hvs_sim.bench.pool import run_jobs
+
+    for record in run_jobs(run_task, jobs, workers, "sweep (local)", "task", progress):
+        on_done(record)
+
+
+def _run_ray(jobs, workers, address, on_done, progress) -> None:
+    try:
+        import ray
+    except ImportError:
+        raise ConfigError("--engine ray needs Ray: pip install 'hvs_sim[ray]' (or pip install ray)") from None
+    from tqdm.auto import tqdm
+
+    env = {"MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl"), "OMP_NUM_THREADS": "1"}
+    if address:
+        ray.init(address=address, runtime_env={"env_vars": env}, log_to_driver=False)
+    else:  # a local instance with `workers` CPUs
+        ray.init(num_cpus=workers, include_dashboard=False, runtime_env={"env_vars": env}, log_to_driver=False)
+    remote = ray.remote(num_cpus=1, max_retries=0)(run_task)
+    pending = {remote.remote(job): job for job in jobs}
+    bar = tqdm(total=len(jobs), desc="sweep (ray)", unit="task", disable=not progress)
+    try:
+        while pending:
+            done, _ = ray.wait(list(pending), num_returns=1)
+            for ref in done:
+                job = pending.pop(ref)
+                try:
+                    record = ray.get(ref)
+                except Exception as exc:  # noqa: BLE001 - a lost worker or node: record it, go on
+                    record = {"id": job[1], "kind": job[0], "params": job[2], "status": "error",
+                              "error": f"{type(exc).__name__}: {exc}"}
+                on_done(record)
+                bar.update(1)
+    finally:
+        for ref in pending:  # interrupted: stop what is in flight
+            ray.cancel(ref, force=True)
+        bar.close()
+        ray.shutdown()
+
+
+def run_sweep(spec: SweepSpec, out, engine: str = "local", workers: int = 1, address: str | None = None,
+              progress: bool = True) -> dict:
+    """Run every task of `spec` not yet done in `out`; returns counts. Writes tasks/*.json as tasks
+    finish and results.csv at the end (also when interrupted: the tasks done so far)."""
+    from hvs_sim.outputs import prepare_out_dir
+
+    if engine not in ENGINES:
+        raise choice_error("engine", engine, ENGINES)
+    check_number("workers", workers, 1, integer=True)
+    if address and engine != "ray":
+        raise ConfigError("--address joins a Ray cluster: it needs --engine ray")
+    out = prepare_out_dir(out)
+    tasks_dir = out / "tasks"
+    tasks_dir.mkdir(exist_ok=True)
+    (out / "spec.json").write_text(json.dumps(dataclasses.asdict(spec), indent=2))
+    jobs = [(spec.kind, task_id(spec.kind, p), p) for p in spec.tasks()]
+    pending = [j for j in jobs if not (tasks_dir / f"{j[1]}.json").exists()]
+    counts = {"tasks": len(jobs), "skipped_done": len(jobs) - len(pending), "ran": 0, "errors": 0}
+
+    def on_done(record: dict) -> None:
+        record["engine"] = engine
+        _write_atomic(tasks_dir / f"{record['id']}.json", record)
+        counts["ran"] += 1
+        counts["errors"] += record["status"] != "ok"
+
+    try:
+        if pending:
+            if engine == "ray":
+                _run_ray(pending, workers, address, on_done, progress)
+            else:
+                _run_local(pending, workers, on_done, progress)
+    finally:
+        write_table(spec, out)
+    return counts
+
+
+# ------------------------------------------------------------------------------------ results
+
+
+def load_records(spec: SweepSpec, out) -> list[dict]:
+    """The finished tasks of `spec` in `out` (grid order)."""
+    tasks_dir = Path(out) / "tasks"
+    records = []
+    for p in spec.tasks():
+        f = tasks_dir / f"{task_id(spec.kind, p)}.json"
+        if f.exists():
+            records.append(json.loads(f.read_text()))
+    return records
+
+
+def _flat_metrics(record: dict) -> dict:
+    return {k: v for k, v in record.get("metrics", {}).items() if k != "errors"}
+
+
+def write_table(spec: SweepSpec, out) -> Path:
+    """results.csv: one row per finished task, its parameters then its metrics."""
+    records = load_records(spec, out)
+    params = list(dict.fromkeys(k for p in spec.tasks() for k in p))
+    metrics = list(dict.fromkeys(k for r in records for k in _flat_metrics(r)))
+    path = Path(out) / "results.csv"
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["id", "status", *params, *metrics, "task_seconds", "engine", "error"])
+        for r in records:
+            m = _flat_metrics(r)
+            w.writerow([r["id"], r["status"], *(r["params"].get(k, "") for k in params),
+                        *("" if m.get(k) is None else m[k] for k in metrics), r.get("task_seconds", ""),
+                        r.get("engine", ""), r.get("error", "")])
+    return path
+
+
+def report(out, by: list[str], figures: bool = True) -> str:
+    """Summary grouped by parameters (`by`), as markdown (also written to report.md), and figures."""
+    out = Path(out)
+    spec_file = out / "spec.json"
+    if not spec_file.exists():
+        raise ConfigError(f"{out} holds no sweep (spec.json missing); run `hvs-sim sweep SPEC --out {out}` first")
+    spec = SweepSpec(**json.loads(spec_file.read_text()))
+    records = load_records(spec, out)
+    if not records:
+        raise ConfigError(f"{out}: no finished tasks yet")
+    keys = list(spec.tasks()[0])
+    bad = [b for b in by if b not in keys]
+    if bad or not by:
+        raise ConfigError(f"--by {','.join(by) or '(nothing)'}: group by task parameters; accepted: {', '.join(keys)}")
+    groups: dict[tuple, list[dict]] = {}
+    for r in records:
+        groups.setdefault(tuple(r["params"][b] for b in by), []).append(r)
+    if spec.kind == "servo":
+        head = ["tasks", "errors", "success", "median convergence (s)", "median final error (px)"]
+    else:
+        head = ["tasks", "errors", "≤ 2 px (pooled frames)", "median px", "p95 px"]
+    lines = [f"| {' | '.join(by)} | {' | '.join(head)} |", "|" + "---|" * (len(by) + len(head))]
+    stats = {}
+    for g, rs in groups.items():
+        ok = [r["metrics"] for r in rs if r["status"] == "ok"]
+        if spec.kind == "servo":
+            conv = [m["seconds_to_converge"] for m in ok if m["seconds_to_converge"] is not None]
+            cells = [len(rs), len(rs) - len(ok), f"{100 * np.mean([m['success'] for m in ok]):.0f} %" if ok else "–",
+                     f"{np.median(conv):.2f}" if conv else "–",
+                     f"{np.median([m['final_error_px'] for m in ok]):.2f}" if ok else "–"]
+            stats[g] = {"success": float(np.mean([m["success"] for m in ok])) if ok else 0.0, "convergence": conv,
+                        "final": [m["final_error_px"] for m in ok]}
+        else:
+            err = np.concatenate([m["errors"] for m in ok]) if ok else np.zeros(0)
+            cells = [len(rs), len(rs) - len(ok), f"{100 * np.mean(err <= 2):.1f} %" if err.size else "–",
+                     f"{np.median(err):.2f}" if err.size else "–", f"{np.percentile(err, 95):.2f}" if err.size else "–"]
+            stats[g] = {"errors": err}
+        lines.append(f"| {' | '.join(map(str, g))} | {' | '.join(map(str, cells))} |")
+    text = "\n".join(lines) + "\n"
+    (out / "report.md").write_text(text)
+    if figures:
+        _report_figures(spec.kind, stats, by, out)
+    return text
+
+
+def _report_figures(kind: str, stats: dict, by: list[str], out: Path) -> None:
+    from hvs_sim.viz.figures import plt
+
+    labels = [" / ".join(map(str, g)) for g in stats]
+    if kind == "servo":
+        fig, ax = plt.subplots(1, 3, figsize=(16, 4.2))
+        ax[0].barh(labels, [100 * s["success"] for s in stats.values()], color="tab:green")
+        ax[0].set_xlabel("success (%)")
+        ax[0].set_xlim(0, 100)
+        ax[1].boxplot([s["convergence"] or [np.nan] for s in stats.values()], vert=False, tick_labels=labels)
+        ax[1].set_xlabel("time to converge (s)")
+        for label, s in zip(labels, stats.values()):
+            xs = np.sort(s["final"])
+            ax[2].plot(np.maximum(xs, 1e-3), np.arange(1, len(xs) + 1) / max(len(xs), 1), label=label)
+        ax[2].set_xscale("log")
+        ax[2].axvline(SUCCESS_PX, ls="--", color="k", lw=0.8, label=f"success ≤ {SUCCESS_PX:g} px")
+        ax[2].set_xlabel("final error (px)")
+        ax[2].set_ylabel("fraction of episodes")
+        ax[2].legend(fontsize=7)
+    else:
+        fig, ax = plt.subplots(1, 2, figsize=(13, 4.2))
+        ax[0].barh(labels, [100 * np.mean(s["errors"] <= 2) if s["errors"].size else 0 for s in stats.values()],
+                   color="tab:blue")
+        ax[0].set_xlabel("frames ≤ 2 px (%)")
+        ax[0].set_xlim(0, 100)
+        for label, s in zip(labels, stats.values()):
+            xs = np.sort(s["errors"])
+            ax[1].plot(np.maximum(xs, 1e-3), np.arange(1, len(xs) + 1) / max(len(xs), 1), label=label)
+        ax[1].set_xscale("log")
+        ax[1].axvline(2.0, ls="--", color="k", lw=0.8, label="2 px")
+        ax[1].set_xlabel("tracking error (px)")
+        ax[1].set_ylabel("fraction of frames")
+        ax[1].legend(fontsize=7)
+    fig.suptitle(f"sweep grouped by {', '.join(by)}")
+    fig.tight_layout()
+    fig.savefig(out / "report.png", dpi=90)
+    plt.close(fig)
+
+
+def check_spec_file(path) -> SweepSpec:
+    """load_spec with a HvsError for anything unreadable."""
+    try:
+        return load_spec(path)
+    except HvsError:
+        raise
+    except OSError as exc:
+        raise ConfigError(f"cannot read sweep spec {path}: {exc}") from None
