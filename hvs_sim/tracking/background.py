@@ -24,6 +24,7 @@ import cv2
 import numpy as np
 
 from hvs_sim.errors import ConfigError
+from hvs_sim.tracking.warp import apply
 
 
 @dataclass(frozen=True)
@@ -69,10 +70,6 @@ COMPETING_SHARE = 0.2  # a second consensus this large (of the first's inliers) 
 LK_MAX_ITERATIONS, LK_EPS = 30, 0.01  # pyramidal LK stopping rule per level (OpenCV's defaults)
 RANSAC_MAX_ITERS, RANSAC_REFINE_ITERS = 500, 10  # enough for 30 % inliers among 200 corners
 CORNER_BLOCK_SIZE = 7  # goodFeaturesToTrack's structure-tensor window (work px)
-
-
-def apply_h(M: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    return pts @ M[:2, :2].T + M[:2, 2]
 
 
 def _lk_params(c: BackgroundConfig) -> dict:
@@ -122,7 +119,7 @@ def _trusted_similarity(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig,
         return S
 
     def miss(M):  # how far the model's motion is from the expected one, over all points
-        return float(np.median(np.linalg.norm(apply_h(M, src) - src - expected, axis=1)))
+        return float(np.median(np.linalg.norm(apply(M, src) - src - expected, axis=1)))
 
     return S2 if miss(S2) < miss(S) else S
 
@@ -177,7 +174,7 @@ class BackgroundMotion:
         expected = None
         if c.competing and self.velocity is not None:
             V = np.linalg.matrix_power(self.velocity, frames)
-            expected = apply_h(V, pts[ok]) - pts[ok]
+            expected = apply(V, pts[ok]) - pts[ok]
         return _trusted_similarity(pts[ok], nxt[ok], c, expected)
 
     def update(self, grey: np.ndarray) -> np.ndarray | None:
