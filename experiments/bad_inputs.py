@@ -166,7 +166,13 @@ def _stub_cli():
     natural.run_natural_bench = bench({"overall": {}, "visible_lt_40": {}, "timing": {}, "per_kind": {}})
     brief = dict.fromkeys(("converged", "steps_to_converge", "final_error_px", "max_error_px_during_occlusion",
                            "lost_steps", "predict_steps", "fault_steps", "steps_per_second"), 0)
-    runner.run_episode = lambda *a, **k: (brief, [])
+    from hvs_sim.loop import loop_tracker
+
+    def run_episode(scenario, tracker, *a, tracker_settings=None, **k):  # the checks it makes before any scene
+        loop_tracker(tracker, tracker_settings or {})
+        return brief, []
+
+    runner.run_episode = run_episode
     sequence.write_sequence = lambda *a, **k: {"frames": 1, "peak_occlusion": 0.0}
     gt = SimpleNamespace(corners=np.array([[1.0, 1], [9, 1], [9, 9], [1, 9]]), center=np.array([5.0, 5.0]))
     sequence.iterate_sequence = lambda *a, **k: iter([(np.zeros((16, 16, 3), np.uint8), gt)])

@@ -97,13 +97,7 @@ def cmd_run(args) -> int:
         _check_viewer()
     if args.figures:
         prepare_out_dir(args.figures, "--figures")
-    settings = parse_settings(args.set)
-    if settings:  # refused now, not after the scene is built
-        if args.tracker == "ground_truth":
-            raise ConfigError(f"ground_truth takes no tracker settings, got --set {', '.join(sorted(settings))}")
-        from hvs_sim.tracking import make_tracker
-
-        make_tracker(args.tracker, **settings)
+    settings = parse_settings(args.set)  # checked where the loop builds its tracker, before the scene
     scenario = _scenario_from_args(args)
     config = LoopConfig(steps=args.steps)
     summary, records = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,

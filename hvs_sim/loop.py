@@ -20,7 +20,7 @@ from hvs_sim.render.camera import CameraPose
 from hvs_sim.render.renderer import GroundTruth, Renderer
 from hvs_sim.scene.scenarios import Scenario
 from hvs_sim.scene.world import Scene
-from hvs_sim.tracking import TRACKER_NAMES, Track, make_tracker
+from hvs_sim.tracking import TRACKER_NAMES, Track, Tracker, make_tracker
 from hvs_sim.tracking.frames import roi_corners, roi_from_corners
 
 LOOP_TRACKERS = ("ground_truth",) + TRACKER_NAMES
@@ -68,20 +68,28 @@ class StepRecord:
     arm: tuple | None = None  # (positions (k, 3), orientations (k, 3, 3)) of the arm's meshes (Scene.arm_meshes)
 
 
+def loop_tracker(tracker: str, settings: dict) -> Tracker | None:
+    """The closed loop's tracker by name with its settings (None: the ground_truth oracle). Built
+    before the scene, so a bad name or setting costs no rendering."""
+    if tracker not in LOOP_TRACKERS:
+        raise choice_error("tracker", tracker, LOOP_TRACKERS)
+    if tracker == "ground_truth":
+        if settings:
+            raise ConfigError(f"ground_truth takes no tracker settings, got {sorted(settings)}")
+        return None
+    return make_tracker(tracker, **settings)
+
+
 class ServoLoop:
     """One closed-loop episode of a scenario with the arm mount and a named tracker."""
 
     def __init__(self, scenario: Scenario, tracker: str = "deep_lk", config: LoopConfig = LoopConfig(), **tracker_config):
         if scenario.mount != "arm":
             raise ConfigError(f"the closed loop needs mount='arm', got {scenario.mount!r}")
-        if tracker not in LOOP_TRACKERS:
-            raise choice_error("tracker", tracker, LOOP_TRACKERS)
+        self.tracker = loop_tracker(tracker, tracker_config)
         self.scenario, self.tracker_name, self.config = scenario, tracker, config
         self.scene = Scene(scenario)
         self.renderer = Renderer(self.scene)
-        if tracker == "ground_truth" and tracker_config:
-            raise ConfigError(f"ground_truth takes no tracker settings, got {sorted(tracker_config)}")
-        self.tracker = None if tracker == "ground_truth" else make_tracker(tracker, **tracker_config)
         lower, upper, qdot_max = self.scene.joint_limits()
         self.limits = ArmLimits(qdot_max=qdot_max, q_lower=lower, q_upper=upper)
         # desired flag corners: the target seen from the reference pose (centred, at the standoff)
