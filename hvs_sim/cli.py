@@ -321,7 +321,7 @@ def cmd_sweep(args) -> int:
         raise ConfigError("usage: hvs-sim sweep SPEC.toml --out DIR [--engine local|ray] [--address ADDR] [--workers N]")
     if args.by:
         raise ConfigError("--by applies to `hvs-sim sweep report DIR`")
-    spec = sweep.check_spec_file(args.target[0])
+    spec = sweep.load_spec(args.target[0])
     if args.out is None:
         raise ConfigError("give --out DIR: where the sweep keeps its tasks and results (re-running resumes there)")
     counts = sweep.run_sweep(spec, args.out, engine=args.engine, workers=args.workers, address=args.address)
@@ -517,21 +517,19 @@ def main(argv: list[str] | None = None) -> int:
     handle = threading.current_thread() is threading.main_thread()  # signal handlers live in the main thread
     previous = signal.signal(signal.SIGTERM, _on_sigterm) if handle else None
     _SIGTERM_SEEN.clear()
-    terminated = False
     try:
         code = args.func(args)
     except HvsError as exc:
         print(f"hvs-sim: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt as exc:
-        terminated = isinstance(exc, Terminated)
-        print(f"hvs-sim: {'terminated (SIGTERM)' if terminated else 'interrupted (Ctrl-C)'}: stopped; what was "
+    except KeyboardInterrupt:
+        print(f"hvs-sim: {'terminated (SIGTERM)' if _SIGTERM_SEEN else 'interrupted (Ctrl-C)'}: stopped; what was "
               "finished is kept, and summaries written so far say interrupted", file=sys.stderr)
         code = EXIT_SIGINT
     finally:
         if handle:
             signal.signal(signal.SIGTERM, previous)
-    return EXIT_SIGTERM if (terminated or _SIGTERM_SEEN) and code == EXIT_SIGINT else code
+    return EXIT_SIGTERM if _SIGTERM_SEEN and code == EXIT_SIGINT else code
 
 
 if __name__ == "__main__":

@@ -30,12 +30,12 @@ from pathlib import Path
 
 import numpy as np
 
-from hvs_sim.errors import ConfigError, HvsError, choice_error
+from hvs_sim.bench.servo import EXTRA_STEPS, SUCCESS_PX
+from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.validate import check_number
 
 KINDS = ("track", "servo")
 ENGINES = ("local", "ray")
-SUCCESS_PX = 1.0  # servo: success = converged and final error ≤ this (as the servo benchmark)
 # metrics that measure time: they differ between runs and engines; every other metric is seeded
 TIMING_METRICS = ("median_ms", "p95_ms", "steps_per_second", "task_seconds")
 
@@ -151,7 +151,11 @@ def load_spec(path) -> SweepSpec:
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"sweep spec {path} not found (a TOML file: kind, [axes], [fixed])")
-    return parse_spec(path.read_text(), str(path))
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read sweep spec {path}: {exc}") from None
+    return parse_spec(text, str(path))
 
 
 def task_id(kind: str, params: dict) -> str:
@@ -198,7 +202,7 @@ def _servo_task(params: dict) -> dict:
     ibvs = IBVSConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in params.items()
                          if fields.get(k) == "ibvs-field"})
     loop = {k: v for k, v in params.items() if fields.get(k) == "loop-field"}
-    steps = params.get("steps") or scen.n_frames + 60  # as the servo benchmark: past the end, to see the recovery
+    steps = params.get("steps") or scen.n_frames + EXTRA_STEPS
     summary, _ = run_episode(scen, params["tracker"], LoopConfig(steps=steps, ibvs=ibvs, keep_frames=False, **loop),
                              progress=False)
     keys = ("converged", "steps_to_converge", "seconds_to_converge", "final_error_px", "max_error_px_during_occlusion",
@@ -391,6 +395,18 @@ def report(out, by: list[str], figures: bool = True) -> str:
     return text
 
 
+def _cdf(ax, labels: list[str], samples: list, threshold: float, threshold_label: str, xlabel: str, ylabel: str) -> None:
+    """One CDF per group on a log axis, with the threshold line."""
+    for label, values in zip(labels, samples):
+        xs = np.sort(values)
+        ax.plot(np.maximum(xs, 1e-3), np.arange(1, len(xs) + 1) / max(len(xs), 1), label=label)
+    ax.set_xscale("log")
+    ax.axvline(threshold, ls="--", color="k", lw=0.8, label=threshold_label)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.legend(fontsize=7)
+
+
 def _report_figures(kind: str, stats: dict, by: list[str], out: Path) -> None:
     from hvs_sim.viz.figures import plt
 
@@ -402,39 +418,17 @@ def _report_figures(kind: str, stats: dict, by: list[str], out: Path) -> None:
         ax[0].set_xlim(0, 100)
         ax[1].boxplot([s["convergence"] or [np.nan] for s in stats.values()], vert=False, tick_labels=labels)
         ax[1].set_xlabel("time to converge (s)")
-        for label, s in zip(labels, stats.values()):
-            xs = np.sort(s["final"])
-            ax[2].plot(np.maximum(xs, 1e-3), np.arange(1, len(xs) + 1) / max(len(xs), 1), label=label)
-        ax[2].set_xscale("log")
-        ax[2].axvline(SUCCESS_PX, ls="--", color="k", lw=0.8, label=f"success ≤ {SUCCESS_PX:g} px")
-        ax[2].set_xlabel("final error (px)")
-        ax[2].set_ylabel("fraction of episodes")
-        ax[2].legend(fontsize=7)
+        _cdf(ax[2], labels, [s["final"] for s in stats.values()], SUCCESS_PX, f"success ≤ {SUCCESS_PX:g} px",
+             "final error (px)", "fraction of episodes")
     else:
         fig, ax = plt.subplots(1, 2, figsize=(13, 4.2))
         ax[0].barh(labels, [100 * np.mean(s["errors"] <= 2) if s["errors"].size else 0 for s in stats.values()],
                    color="tab:blue")
         ax[0].set_xlabel("frames ≤ 2 px (%)")
         ax[0].set_xlim(0, 100)
-        for label, s in zip(labels, stats.values()):
-            xs = np.sort(s["errors"])
-            ax[1].plot(np.maximum(xs, 1e-3), np.arange(1, len(xs) + 1) / max(len(xs), 1), label=label)
-        ax[1].set_xscale("log")
-        ax[1].axvline(2.0, ls="--", color="k", lw=0.8, label="2 px")
-        ax[1].set_xlabel("tracking error (px)")
-        ax[1].set_ylabel("fraction of frames")
-        ax[1].legend(fontsize=7)
+        _cdf(ax[1], labels, [s["errors"] for s in stats.values()], 2.0, "2 px", "tracking error (px)",
+             "fraction of frames")
     fig.suptitle(f"sweep grouped by {', '.join(by)}")
     fig.tight_layout()
     fig.savefig(out / "report.png", dpi=90)
     plt.close(fig)
-
-
-def check_spec_file(path) -> SweepSpec:
-    """load_spec with a HvsError for anything unreadable."""
-    try:
-        return load_spec(path)
-    except HvsError:
-        raise
-    except OSError as exc:
-        raise ConfigError(f"cannot read sweep spec {path}: {exc}") from None

@@ -21,15 +21,19 @@ OFFSET_LOW = np.array([-0.04, -0.04, -0.04, -0.25])
 OFFSET_HIGH = np.array([0.04, 0.04, 0.10, 0.25])
 
 
+EXTRA_STEPS = 60  # an episode runs this long past the scenario's end, to see the recovery
+SUCCESS_PX = 1.0  # success = converged and final ground-truth error ≤ this
+
+
 @dataclass(frozen=True)
 class ServoBenchConfig:
     trackers: tuple[str, ...] = SERVO_TRACKERS
     scenarios: tuple[str, ...] = ("walk_by", "pause")
     episodes: int = 10
     seed0: int = 200
-    extra_steps: int = 60  # run this long past the scenario's end, to see the recovery
+    extra_steps: int = EXTRA_STEPS
     steps: int | None = None  # overrides scenario length + extra_steps (smoke runs)
-    success_px: float = 1.0
+    success_px: float = SUCCESS_PX
     workers: int = 1
     camera: str = REALISTIC_PRESET  # camera model of every episode (hvs_sim.camera_model.SENSOR_PRESETS)
     people: str = "textured"  # how the people look ("plain": the flat figures of the earlier benchmarks)
