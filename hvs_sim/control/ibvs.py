@@ -50,8 +50,7 @@ class IBVSConfig:
     max_angular: float = 0.6  # rad/s
 
     def __post_init__(self):
-        if not (isinstance(self.gain, (int, float)) and self.gain > 0 and math.isfinite(self.gain)):
-            raise ConfigError(f"gain must be a finite number > 0, got {self.gain!r}")
+        check_number("gain", self.gain, 0, lo_open=True)
         if self.gain_inf is not None:
             check_number("gain_inf", self.gain_inf, 0, self.gain, lo_open=True, hi_open=True)
         check_number("gain_slope", self.gain_slope, 0, lo_open=True)
