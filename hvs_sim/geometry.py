@@ -50,3 +50,14 @@ def offset_pose(position: np.ndarray, R_cv: np.ndarray, offset6) -> tuple[np.nda
     pos = np.asarray(position, float) + R_cv @ o[:3]
     R = R_cv @ rot_z(o[3]) @ rot_x(o[4]) @ rot_y(o[5])
     return pos, R
+
+
+def rotation_vector(R: np.ndarray) -> np.ndarray:
+    """Axis × angle (rad) of a rotation matrix, through the quaternion: exact down to tiny angles."""
+    q = mat_to_quat(R)
+    if q[0] < 0:
+        q = -q
+    n = float(np.linalg.norm(q[1:]))
+    if n == 0.0:
+        return np.zeros(3)
+    return 2.0 * np.arctan2(n, q[0]) * q[1:] / n

@@ -1,15 +1,18 @@
 """Image-based visual servoing with point features: v = −λ L⁺ e.
 
 Features are the four tracked target corners in normalised image coordinates (x = (u − cx)/f).
-A similarity tracker observes translation, depth and roll of the target but not its pitch and yaw,
-so by default only (vx, vy, vz, ωz) are controlled; ωx and ωy are commanded zero.
+Which DOFs are controlled follows what the features observe: true perspective corners (ground
+truth, a homography tracker) observe all six; a similarity tracker observes translation, depth and
+roll of the target but not its pitch and yaw, so with it only (vx, vy, vz, ωz) are controlled and
+ωx, ωy are commanded zero (`dofs_for`). Each step reports the singular values of the controlled
+columns of L (rank and condition number), as ViSP users check them.
 Twists are in the camera frame, OpenCV convention (x right, y down, z forward).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -17,6 +20,14 @@ from hvs_sim.errors import ConfigError, InputError, choice_error
 from hvs_sim.validate import check_number
 
 DOF_NAMES = ("vx", "vy", "vz", "wx", "wy", "wz")
+SIMILARITY_DOFS = ("vx", "vy", "vz", "wz")  # what a similarity tracker's corners observe
+RANK_TOL = 1e-6  # singular values below this × the largest count as zero (rank of L)
+CONTROLLERS = ("ibvs", "pbvs")
+
+
+def dofs_for(warp: str) -> tuple[str, ...]:
+    """The DOFs a tracker's corners observe: all six for perspective corners, four for a similarity."""
+    return DOF_NAMES if warp == "homography" else SIMILARITY_DOFS
 INTERACTION_AT = ("current", "desired", "mean")
 DEPTH_SOURCES = ("scale", "true")
 
@@ -44,7 +55,7 @@ class IBVSConfig:
     gain_slope: float = 30.0  # λ'(0), slope of the adaptive gain at zero error
     interaction: str = "mean"
     depth: str = "scale"
-    dofs: tuple[str, ...] = ("vx", "vy", "vz", "wz")
+    dofs: tuple[str, ...] | None = None  # None: what the features observe (dofs_for; the loop decides)
     predict_gain: float = 0.5  # multiplies λ while the tracker predicts (occlusion)
     max_linear: float = 0.15  # m/s, per-axis command bound (reported when hit)
     max_angular: float = 0.6  # rad/s
@@ -58,7 +69,7 @@ class IBVSConfig:
             raise choice_error("interaction matrix evaluation", self.interaction, INTERACTION_AT)
         if self.depth not in DEPTH_SOURCES:
             raise choice_error("depth source", self.depth, DEPTH_SOURCES)
-        if not self.dofs or any(d not in DOF_NAMES for d in self.dofs):
+        if self.dofs is not None and (not self.dofs or any(d not in DOF_NAMES for d in self.dofs)):
             raise ConfigError(f"dofs {self.dofs} invalid; accepted: a subset of {', '.join(DOF_NAMES)}")
         check_number("predict_gain", self.predict_gain, 0, 1)
         check_number("max_linear (m/s)", self.max_linear, 0, lo_open=True)
@@ -72,12 +83,26 @@ class ControlOutput:
     error_px: float  # mean corner distance to s* in pixels (what the controller sees)
     gain: float
     saturated: bool
+    singular_values: np.ndarray = field(default_factory=lambda: np.zeros(0))  # of the controlled columns of L
+
+    @property
+    def rank(self) -> int:
+        sv = self.singular_values
+        return int((sv > RANK_TOL * sv.max()).sum()) if len(sv) and sv.max() > 0 else 0
+
+    @property
+    def condition(self) -> float:
+        """Condition number of the controlled columns of L (inf when rank-deficient)."""
+        sv = self.singular_values
+        return float(sv.max() / sv.min()) if len(sv) and sv.min() > 0 else float("inf")
 
 
 class IBVSController:
     """Point-feature IBVS to fixed desired features s* (pixels), given intrinsics K."""
 
-    def __init__(self, K: np.ndarray, desired_px: np.ndarray, desired_depth: float, config: IBVSConfig = IBVSConfig()):
+    def __init__(self, K: np.ndarray, desired_px: np.ndarray, desired_depth: float, config: IBVSConfig = IBVSConfig(),
+                 dofs: tuple[str, ...] = DOF_NAMES):
+        """`dofs`: the DOFs the features observe, used when config.dofs is None."""
         try:
             self.K = np.asarray(K, float)
             self.desired_px = np.asarray(desired_px, float).reshape(-1, 2)
@@ -95,7 +120,8 @@ class IBVSController:
             raise ConfigError(f"desired depth must be > 0 m, got {desired_depth}")
         self.desired_depth = float(desired_depth)
         self.s_star = self.normalise(self.desired_px)
-        self.cols = [DOF_NAMES.index(d) for d in config.dofs]
+        self.dofs = tuple(config.dofs or dofs)
+        self.cols = [DOF_NAMES.index(d) for d in self.dofs]
 
     def normalise(self, px: np.ndarray) -> np.ndarray:
         K = self.K
@@ -138,11 +164,18 @@ class IBVSController:
         if mode == "predict":
             lam *= self.config.predict_gain
         twist = np.zeros(6)
+        Lc = L[:, self.cols]
+        sv = np.linalg.svd(Lc, compute_uv=False)
         if mode != "lost":
-            twist[self.cols] = -lam * (np.linalg.pinv(L[:, self.cols]) @ e)
-        limits = np.array([self.config.max_linear] * 3 + [self.config.max_angular] * 3)
-        ratio = float(np.max(np.abs(twist) / limits))
-        saturated = ratio > 1.0
-        if saturated:  # scale the whole twist: keeps its direction, and the record says so
-            twist = twist / ratio
-        return ControlOutput(twist, e, err_px, lam, saturated)
+            twist[self.cols] = -lam * (np.linalg.pinv(Lc) @ e)
+        twist, saturated = bound_twist(twist, self.config.max_linear, self.config.max_angular)
+        return ControlOutput(twist, e, err_px, lam, saturated, sv)
+
+
+def bound_twist(twist: np.ndarray, max_linear: float, max_angular: float) -> tuple[np.ndarray, bool]:
+    """Scale the whole twist under the per-axis bounds (keeps its direction); whether it was scaled."""
+    limits = np.array([max_linear] * 3 + [max_angular] * 3)
+    ratio = float(np.max(np.abs(twist) / limits))
+    if ratio > 1.0:
+        return twist / ratio, True
+    return twist, False

@@ -97,6 +97,7 @@ class ArmRig:
     """
 
     BASE_HEIGHT = 0.9
+    BASE_X = 0.0  # along the camera's viewing direction (world +X), relative to the world origin
 
     def __init__(self, root: mjcf.RootElement, fovy: float):
         from dm_control.entities.manipulators.kinova import JacoArm
@@ -113,9 +114,9 @@ class ArmRig:
         self.camera = wrist.parent.add("camera", name="eye", pos=wrist.pos, quat=q_cam, fovy=fovy)
         self.camera_site = wrist.parent.add("site", name="eye_site", pos=wrist.pos, quat=q_cam, size=[0.005], group=4)
         root.worldbody.add("geom", name="pedestal", type="cylinder", size=[0.08, self.BASE_HEIGHT / 2],
-                           pos=[0, 0, self.BASE_HEIGHT / 2], rgba=[0.3, 0.3, 0.32, 1])
+                           pos=[self.BASE_X, 0, self.BASE_HEIGHT / 2], rgba=[0.3, 0.3, 0.32, 1])
         frame = root.attach(self.arm.mjcf_model)
-        frame.pos = [0, 0, self.BASE_HEIGHT]
+        frame.pos = [self.BASE_X, 0, self.BASE_HEIGHT]
         self.joints = self.arm.joints
         self.actuators = self.arm.actuators
 

@@ -85,6 +85,18 @@ class OccluderPlan:
             raise ConfigError(f"occluder speed must be > 0 m/s, got {self.speed}")
 
 
+# how far a start pose may be from the reference pose (the arm reaches further; the target must also be
+# in view, which ServoLoop checks with the camera's projection)
+MAX_START_SHIFT_M = 0.4
+MAX_START_ROLL = math.radians(90.0)
+MAX_START_TILT = math.radians(30.0)  # pitch and yaw
+
+
+def _fmt_offset(off) -> str:
+    """(dx, dy, dz, roll, pitch, yaw) as metres and degrees, for messages."""
+    return "(" + ", ".join([f"{v:.3f} m" for v in off[:3]] + [f"{math.degrees(v):.1f}°" for v in off[3:]]) + ")"
+
+
 @dataclass(frozen=True)
 class Scenario:
     """A named, seeded scene set-up. Vary with `dataclasses.replace`.
@@ -106,7 +118,7 @@ class Scenario:
     standoff: float = 0.8
     camera: CameraConfig = field(default_factory=CameraConfig)
     occluders: tuple[OccluderPlan, ...] = ()
-    start_offset: tuple[float, float, float, float] = (0.03, -0.02, 0.06, math.radians(6.0))
+    start_offset: tuple[float, ...] = (0.03, -0.02, 0.06, math.radians(6.0), 0.0, 0.0)
     wall_motion: tuple[float, float, float] = (0.0, 0.0, 0.0)
     shake: float = 1.0
     shadows: bool = False
@@ -132,16 +144,36 @@ class Scenario:
             raise ConfigError(f"fps must be in [1, 240], got {self.fps}")
         if not 0.4 <= self.standoff <= 1.5:
             raise ConfigError(f"standoff must be in [0.4, 1.5] m, got {self.standoff}")
-        if len(self.start_offset) != 4 or not all(math.isfinite(v) for v in self.start_offset):
-            raise ConfigError("start_offset must be 4 finite numbers (dx, dy, dz in m, droll in rad)")
-        if np.linalg.norm(self.start_offset[:3]) > 0.15 or abs(self.start_offset[3]) > math.radians(30):
-            raise ConfigError("start_offset must stay within 0.15 m and 30 degrees of the reference pose")
+        self._check_start_offset()
         if self.shake < 0:
             raise ConfigError(f"shake must be >= 0, got {self.shake}")
         if self.camera.sensor.exposure_ms > 1000.0 / self.fps:
             raise ConfigError(f"the camera's exposure ({self.camera.sensor.exposure_ms:g} ms) must fit in one frame "
                               f"interval (1000 / fps = {1000.0 / self.fps:.1f} ms)")
         self._check_wall()
+
+    @property
+    def start_offset_text(self) -> str:
+        return _fmt_offset(self.start_offset)
+
+    def _check_start_offset(self) -> None:
+        """(dx, dy, dz, roll, pitch, yaw): metres and radians in the reference camera's frame; four values
+        (no pitch, yaw) are accepted as before and padded with zeros."""
+        off = self.start_offset
+        try:
+            ok = len(off) in (4, 6) and all(not isinstance(v, bool) and math.isfinite(float(v)) for v in off)
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise ConfigError(f"start_offset must be 6 finite numbers (dx, dy, dz in m; roll, pitch, yaw in rad) "
+                              f"or 4 (no pitch, yaw), got {off!r}")
+        off = tuple(float(v) for v in off) + (0.0, 0.0) * (len(off) == 4)
+        object.__setattr__(self, "start_offset", off)
+        bounds = (MAX_START_SHIFT_M, MAX_START_ROLL, MAX_START_TILT, MAX_START_TILT)
+        if np.linalg.norm(off[:3]) > bounds[0] or any(abs(v) > b for v, b in zip(off[3:], bounds[1:])):
+            raise ConfigError(f"start_offset {_fmt_offset(off)} is too far from the reference pose: at most "
+                              f"{bounds[0]} m of translation, {math.degrees(bounds[1]):.0f}° of roll and "
+                              f"{math.degrees(bounds[2]):.0f}° of pitch and of yaw")
 
     def _check_wall(self) -> None:
         if self.target_texture is not None and self.target_image is not None:

@@ -12,7 +12,7 @@ from dm_control import mjcf
 from dm_control.utils import inverse_kinematics
 
 from hvs_sim.errors import ConfigError
-from hvs_sim.geometry import mat_to_quat, offset_pose, opencv_to_mujoco
+from hvs_sim.geometry import mat_to_quat, mujoco_to_opencv, offset_pose, opencv_to_mujoco, rotation_vector
 from hvs_sim.scene.flag_art import FLAG_NAMES
 from hvs_sim.scene.images import TARGET_MAX_ASPECT, crop_to_aspect, list_images, load_image
 from hvs_sim.scene.parts import ArmRig, FlagWall, HandheldRig, Person
@@ -23,6 +23,9 @@ from hvs_sim.scene.textures import TEXTURE_SETS, natural_texture
 # x_cam = −Y_world (right), y_cam = −Z_world (down), z_cam = +X_world (forward).
 REFERENCE_POSITION = np.array([0.40, 0.0, 1.30])
 IK_CONTINUATION_STEPS = 4  # IK solves from the reference pose to the start pose (stays on the home branch)
+IK_PROGRESS_THRESH = 1e4  # dm_control stops an IK whose step is this many times its error drop; near the
+# wrist singularity progress is slow but real, and the default (20) gave up on reachable poses
+IK_RESTARTS, IK_HOME_SEEDS, IK_RESTART_SEED = 24, 24, 7  # seeded IK restarts: start pose when continuation fails, home
 WALK_BOB_M, WALK_STEP_HZ = 0.01, 1.0  # a walking person's vertical bob (m) and its rate
 ROOM_WALL_BEHIND_M = 0.25  # the room's back wall behind the flag board (m)
 REFERENCE_R_CV = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
@@ -107,6 +110,25 @@ class Scene:
 
     def camera_position(self) -> np.ndarray:
         return self.physics.bind(self.camera).xpos.copy()
+
+    def camera_pose_cv(self) -> tuple[np.ndarray, np.ndarray]:
+        """The camera's world position and OpenCV-convention rotation now (from the simulator)."""
+        b = self.physics.bind(self.camera)
+        return b.xpos.copy(), mujoco_to_opencv(b.xmat)
+
+    def target_position(self) -> np.ndarray:
+        """World position of the target board's centre now (it may move: wall_motion)."""
+        return self.physics.bind(self.wall.body).xpos.copy()
+
+    def pose_error(self) -> np.ndarray:
+        """The camera's pose error to the reference pose, relative to the target (which may move):
+        (x, y, z) in mm and (pitch, yaw, roll) as the rotation vector's components about the
+        reference camera's x, y, z in degrees. Truth from the simulator, for evaluation only."""
+        pos, R = self.camera_pose_cv()
+        ref_pos, ref_R = self.reference_pose()
+        d = ref_R.T @ ((pos - self.target_position()) - (ref_pos - self.target_centre0))
+        rotvec = rotation_vector(ref_R.T @ R)
+        return np.concatenate([1e3 * d, np.degrees(rotvec)])
 
     def _occluder_line(self, k: int, t: float) -> tuple[np.ndarray, np.ndarray]:
         """Camera and target positions that person k walks across.
@@ -282,16 +304,37 @@ class Scene:
         if self.is_arm:
             # continuation: walk the IK from the reference pose to the start pose in small steps, so
             # the solution stays on the home branch and every solve starts close to its answer
-            q_start = _home_configuration(self)
-            ref = self.reference_pose()
-            for alpha in np.linspace(0.0, 1.0, IK_CONTINUATION_STEPS + 1)[1:]:
-                offset = alpha * np.asarray(self.scenario.start_offset, float)
-                q_start = self.solve_ik(*offset_pose(*ref, offset), q0=q_start)
+            q_start = self._start_configuration()
             self.physics.reset()
             self.physics.bind(self.rig.joints).qpos = q_start
             self.physics.bind(self.rig.actuators).ctrl = 0.0
             self._q_prev = q_start.copy()
         self._apply_time()
+
+    def _start_configuration(self) -> np.ndarray:
+        """Joint angles of the start pose. Continuation first: the IK walks from the reference pose to
+        the start pose in small steps, so the solution stays on the home branch. Where that branch
+        runs into a joint limit or a singularity, seeded restarts spread over the joint ranges are
+        tried; the one nearest the home configuration is kept."""
+        home = _home_configuration(self)
+        ref = self.reference_pose()
+        target = offset_pose(*ref, self.scenario.start_offset)
+        q = home
+        try:
+            for alpha in np.linspace(0.0, 1.0, IK_CONTINUATION_STEPS + 1)[1:]:
+                q = self.solve_ik(*offset_pose(*ref, alpha * np.asarray(self.scenario.start_offset, float)), q0=q)
+            return q
+        except ConfigError as first:
+            found = []
+            for q0 in _restart_seeds(self, IK_RESTARTS, IK_RESTART_SEED):
+                try:
+                    found.append(self.solve_ik(*target, q0=q0))
+                except ConfigError:
+                    continue
+            if not found:
+                raise ConfigError(f"{first}; the start offset {tuple(round(v, 3) for v in self.scenario.start_offset)} "
+                                  "(m, rad) cannot be reached by the arm: give a smaller offset") from None
+            return min(found, key=lambda qs: float(np.abs(qs - home).sum()))
 
     def advance(self, joint_velocity: np.ndarray | None = None) -> None:
         """Move one frame (1/fps s): joint velocity commands for the arm, kinematics for the rest."""
@@ -361,16 +404,44 @@ def _solve_ik(root, physics, rig: ArmRig, position, R_cv, q0) -> np.ndarray:
     quat = mat_to_quat(opencv_to_mujoco(R_cv))
     res = inverse_kinematics.qpos_from_site_pose(
         scratch, rig.camera_site.full_identifier, target_pos=position, target_quat=quat,
-        joint_names=names, tol=1e-10, max_steps=2000, inplace=True)
+        joint_names=names, tol=1e-10, max_steps=2000, inplace=True, progress_thresh=IK_PROGRESS_THRESH)
     if not res.success and res.err_norm > 1e-5:
         raise ConfigError(f"camera pose {np.round(position, 3).tolist()} is out of the arm's reach (IK error {res.err_norm:.2g})")
-    return scratch.bind(rig.joints).qpos.copy()
+    q = scratch.bind(rig.joints).qpos.copy()
+    limited = physics.model.jnt_limited[physics.bind(rig.joints).element_id].astype(bool)
+    lo, hi = np.asarray(physics.bind(rig.joints).range, float).T
+    if np.any(limited & ((q < lo) | (q > hi))):
+        raise ConfigError(f"camera pose {np.round(position, 3).tolist()} needs an arm configuration outside the "
+                          "joint limits")
+    return q
+
+
+def _restart_seeds(scene: Scene, n: int, seed: int) -> list[np.ndarray]:
+    """Seeded joint configurations spread over the joints' ranges (±π for unlimited joints)."""
+    lower, upper, _ = scene.joint_limits()
+    lo, hi = np.where(np.isfinite(lower), lower, -np.pi), np.where(np.isfinite(upper), upper, np.pi)
+    rng = np.random.default_rng(seed)
+    return [rng.uniform(lo, hi) for _ in range(n)]
+
+
+def _limit_margin(scene: Scene, q: np.ndarray) -> float:
+    lower, upper, _ = scene.joint_limits()
+    lim = np.isfinite(lower)
+    return float(np.min(np.minimum(q[lim] - lower[lim], upper[lim] - q[lim]))) if lim.any() else np.inf
 
 
 _HOME: list[np.ndarray] = []  # the reference pose is fixed, so its IK solution is solved once
 
 
 def _home_configuration(scene: Scene) -> np.ndarray:
+    """The arm's configuration at the reference pose: of the seeded IK solutions, the one farthest from
+    its joint limits, so that start poses all around the reference are reached by continuation from it."""
     if not _HOME:
-        _HOME.append(scene.solve_ik(*scene.reference_pose(), q0=np.zeros(len(scene.rig.joints))))
+        found = []
+        for q0 in [np.zeros(len(scene.rig.joints))] + _restart_seeds(scene, IK_HOME_SEEDS, IK_RESTART_SEED):
+            try:
+                found.append(scene.solve_ik(*scene.reference_pose(), q0=q0))
+            except ConfigError:
+                continue
+        _HOME.append(max(found, key=lambda q: _limit_margin(scene, q)))
     return _HOME[0].copy()

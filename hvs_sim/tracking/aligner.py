@@ -20,14 +20,14 @@ import cv2
 import numpy as np
 import torch
 
-from hvs_sim.errors import ConfigError
+from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.tracking.feature_lk import HUBER_K, MAD_TO_SIGMA, AlignResult, FeatureICLK, LKConfig
 from hvs_sim.tracking.frames import roi_center, to_grey
 from hvs_sim.tracking.global_match import GlobalMatcher, Match
 from hvs_sim.tracking.nets.vgg import vgg16_pool2
 from hvs_sim.tracking.occlusion import TAU_PIX, aligned_patch, occlusion_fraction
 from hvs_sim.tracking.trackability import MIN_TRACKABILITY
-from hvs_sim.tracking.warp import apply, matrix_to_pose, pose_to_matrix
+from hvs_sim.tracking.warp import WARPS, apply, matrix_to_pose, pose_to_matrix, translate
 from hvs_sim.validate import check_number
 
 MIN_CROP = 16  # work px: a crop smaller than this on a side means the target is (nearly) off the frame
@@ -76,8 +76,17 @@ class DeepLKConfig:
     # OP_t after scaling the template by the frame's exposure gain (occlusion.py; False: raw
     # intensities, as the paper)
     normalise_exposure: bool = True
+    # the warp the feature LK estimates: "similarity" (the paper's: translation, roll, scale) or
+    # "homography" (a plane in perspective: its four corners are true perspective corners, so a
+    # servo loop can control all six DOF)
+    warp: str = "similarity"
 
     def __post_init__(self):
+        if self.warp not in WARPS:
+            raise choice_error("warp", self.warp, WARPS)
+        if self.residual and self.warp != "similarity":
+            raise ConfigError("the residual regressor predicts a similarity correction; it cannot refine a "
+                              f"{self.warp} warp: use residual=False with warp={self.warp!r}")
         if not 0.2 <= self.scale <= 1.0:
             raise ConfigError(f"scale must be in [0.2, 1.0], got {self.scale}")
         if not 0 < self.match_threshold < 1:
@@ -116,7 +125,7 @@ class Aligner:
         self.device = select_device(config.device)
         self.net = vgg16_pool2(config.weights).to(self.device)
         self.matcher = GlobalMatcher()
-        self.lk_engine = FeatureICLK(config.lk)
+        self.lk_engine = FeatureICLK(config.lk, config.warp)
         self.residual_net = None
         if config.residual:
             if "pool2" not in config.lk.levels:
@@ -240,9 +249,7 @@ class Aligner:
             if A_shape is A_prev and np.linalg.norm(match.center - c_prev) <= self.config.reinit_px:
                 seeds.append((match, A_prev))  # agrees with the current estimate: keep its sub-pixel pose
                 continue
-            seed = A_shape.copy()
-            seed[:2, 2] += match.center - apply(A_shape, self.c_work[None])[0]
-            seeds.append((match, seed))
+            seeds.append((match, translate(A_shape, match.center - apply(A_shape, self.c_work[None])[0])))
         if keep_current:
             candidates = [A_prev] + [sd for _, sd in seeds if sd is not A_prev]
         else:
@@ -319,10 +326,24 @@ class Aligner:
             if used:
                 res.M = M_ref
         A_new = self.N_inv @ res.M @ self.N
-        scale = np.sqrt(abs(np.linalg.det(A_new[:2, :2])))
+        if not np.all(np.isfinite(A_new)) or not self.plausible_shape(A_new):
+            return Alignment(None, out, used)
+        scale = matrix_to_pose(A_new, self.c_work)[3]
         moved = np.linalg.norm(apply(A_new, self.c_work[None]) - apply(A_work, self.c_work[None]))
         _, _, d_theta, d_scale = matrix_to_pose(np.linalg.solve(A_work, A_new), self.c_work)
         jump = abs(d_theta) > self.config.max_rotation_step or abs(d_scale - 1) > self.config.max_scale_step
-        if not np.all(np.isfinite(A_new)) or not 0.5 < scale < 2.0 or moved > self.rho or res.valid < MIN_VALID or jump:
+        if not 0.5 < scale < 2.0 or moved > self.rho or res.valid < MIN_VALID or jump:
             return Alignment(None, out, used)
         return Alignment(A_new, out, used)
+
+    def plausible_shape(self, A_work: np.ndarray) -> bool:
+        """Whether the template's corners under A_work form a convex quadrilateral in front of the
+        camera (always true for a similarity; a homography pulled by an occluder can fold)."""
+        w = apply(A_work, self.t_corners) if A_work[2, :2].any() else None
+        if w is None:
+            return True
+        if np.any(self.t_corners @ A_work[2, :2] + A_work[2, 2] <= 0):
+            return False
+        edges = np.roll(w, -1, axis=0) - w
+        cross = edges[:, 0] * np.roll(edges, -1, axis=0)[:, 1] - edges[:, 1] * np.roll(edges, -1, axis=0)[:, 0]
+        return bool(np.all(cross > 0) or np.all(cross < 0))

@@ -24,7 +24,7 @@ import cv2
 import numpy as np
 
 from hvs_sim.errors import ConfigError
-from hvs_sim.tracking.warp import apply
+from hvs_sim.tracking.warp import apply, is_affine
 
 
 @dataclass(frozen=True)
@@ -124,6 +124,24 @@ def _trusted_similarity(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig,
     return S2 if miss(S2) < miss(S) else S
 
 
+def _ransac_homography(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig) -> np.ndarray | None:
+    """RANSAC homography src → dst (3×3), or None when too few points agree on it."""
+    if len(src) < max(c.min_inliers, 4):
+        return None
+    H, mask = cv2.findHomography(src, dst, cv2.RANSAC, c.ransac_px, maxIters=RANSAC_MAX_ITERS)
+    if H is None or not np.all(np.isfinite(H)) or int(mask.sum()) < max(c.min_inliers, c.min_inlier_ratio * len(src)):
+        return None
+    return H / H[2, 2]
+
+
+def _transform(pts: np.ndarray, M: np.ndarray) -> np.ndarray:
+    """float32 points (N, 2) through an affine or projective 3×3."""
+    if not len(pts):
+        return pts
+    out = cv2.transform(pts[None], M[:2])[0] if is_affine(M) else cv2.perspectiveTransform(pts[None], M)[0]
+    return out.astype(np.float32)
+
+
 def _per_frame(S: np.ndarray, frames: int) -> np.ndarray:
     """The similarity that, applied `frames` times, gives S (its rotation, log-scale and translation shared out)."""
     if frames == 1:
@@ -215,8 +233,10 @@ class KeyframeAnchor:
     by the current estimate so that LK only finds what the estimate missed: a position with no
     error carried over."""
 
-    def __init__(self, config: BackgroundConfig = BackgroundConfig()):
-        self.config = config
+    def __init__(self, config: BackgroundConfig = BackgroundConfig(), model: str = "similarity"):
+        # "homography" for a homography tracker: the kept keyframes' corners spread over the whole
+        # planar wall, where a homography is exact and well constrained (unlike the chain's narrow strips)
+        self.config, self.model = config, model
         self.keys: deque[_Keyframe] = deque(maxlen=config.keyframes)
 
     def reset(self) -> None:
@@ -242,16 +262,19 @@ class KeyframeAnchor:
         to_ref = np.linalg.inv(k.A)  # keyframe → reference
         P = predicted @ to_ref  # keyframe → grey, as predicted
         h, w = grey.shape[:2]
-        start = cv2.transform(k.corners[None], P[:2])[0] if len(k.corners) else none[0]
+        start = _transform(k.corners, P) if len(k.corners) else none[0]
         inside = np.all((start >= 0) & (start < [w - 1, h - 1]), axis=1)
         ref, start = k.corners[inside], start[inside]
         if len(ref) < 4:
             return none
-        warped = cv2.warpAffine(k.image, P[:2], (w, h), flags=cv2.INTER_LINEAR)
+        if is_affine(P):
+            warped = cv2.warpAffine(k.image, P[:2], (w, h), flags=cv2.INTER_LINEAR)
+        else:
+            warped = cv2.warpPerspective(k.image, P, (w, h), flags=cv2.INTER_LINEAR)
         nxt, ok = _lk_checked(warped, grey, start, c)
         if not ok.any():
             return none
-        return cv2.transform(ref[ok][None], to_ref[:2])[0].astype(np.float32), nxt[ok]
+        return _transform(ref[ok], to_ref), nxt[ok]
 
     def update(self, grey: np.ndarray, predicted: np.ndarray) -> np.ndarray | None:
         """Similarity reference → `grey`, searched from `predicted`, or None when not trustworthy."""
@@ -259,4 +282,7 @@ class KeyframeAnchor:
         pairs = [self._follow(k, grey, np.asarray(predicted, float)) for k in self.keys]
         if not pairs:
             return None
-        return _trusted_similarity(np.concatenate([p[0] for p in pairs]), np.concatenate([p[1] for p in pairs]), c)
+        src, dst = np.concatenate([p[0] for p in pairs]), np.concatenate([p[1] for p in pairs])
+        if self.model == "homography":
+            return _ransac_homography(src, dst, c)
+        return _trusted_similarity(src, dst, c)

@@ -63,6 +63,7 @@ class Tracker:
     """Base class: subclasses implement `_init(frame, roi)` and `_update(frame) -> Estimate`."""
 
     name = "base"
+    warp = "similarity"  # the warp model it estimates (warp.WARPS): a homography gives perspective corners
 
     def __init__(self):
         self._shape: tuple[int, int] | None = None

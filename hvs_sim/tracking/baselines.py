@@ -5,12 +5,18 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from hvs_sim.errors import ConfigError
+from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.tracking.base import Estimate, Tracker
 from hvs_sim.tracking.frames import to_grey
 from hvs_sim.tracking.occlusion import TAU_PIX, aligned_patch, occlusion_fraction
-from hvs_sim.tracking.warp import project_similarity
+from hvs_sim.tracking.warp import WARPS, project_similarity
 from hvs_sim.validate import check_number
+
+
+def _check_warp(warp: str) -> str:
+    if warp not in WARPS:
+        raise choice_error("warp", warp, WARPS)
+    return warp
 
 
 class _GreyTemplate(Tracker):
@@ -27,12 +33,13 @@ class _GreyTemplate(Tracker):
 
 
 class SiftTracker(_GreyTemplate):
-    """SIFT keypoints of the template matched in every frame (ratio test), RANSAC similarity."""
+    """SIFT keypoints of the template matched in every frame (ratio test), RANSAC similarity (or homography)."""
 
     name = "sift"
 
-    def __init__(self, ratio: float = 0.75, min_inliers: int = 6, ransac_px: float = 3.0):
+    def __init__(self, ratio: float = 0.75, min_inliers: int = 6, ransac_px: float = 3.0, warp: str = "similarity"):
         super().__init__()
+        self.warp = _check_warp(warp)
         check_number("sift ratio", ratio, 0, 1, lo_open=True, hi_open=True)
         check_number("sift min_inliers", min_inliers, 3, integer=True)  # a similarity needs 2 points, RANSAC a spare
         check_number("sift ransac_px", ransac_px, 0, lo_open=True)
@@ -58,22 +65,27 @@ class SiftTracker(_GreyTemplate):
             return Estimate(self.A, "lost", self.occlusion(grey, self.A), len(good) / max(len(self.pts), 1))
         src = self.pts[[m.queryIdx for m in good]]
         dst = np.array([kps[m.trainIdx].pt for m in good], np.float32)
-        M, inliers = cv2.estimateAffinePartial2D(src, dst, method=cv2.RANSAC, ransacReprojThreshold=self.ransac_px)
+        if self.warp == "homography" and len(good) >= 4:
+            M, inliers = cv2.findHomography(src, dst, cv2.RANSAC, self.ransac_px)
+        else:
+            M, inliers = cv2.estimateAffinePartial2D(src, dst, method=cv2.RANSAC, ransacReprojThreshold=self.ransac_px)
         n_in = int(inliers.sum()) if inliers is not None else 0
         score = n_in / max(len(self.pts), 1)
-        if M is None or n_in < self.min_inliers:
+        if M is None or n_in < self.min_inliers or not np.all(np.isfinite(M)):
             return Estimate(self.A, "lost", self.occlusion(grey, self.A), score)
-        A = np.vstack([M, [0, 0, 1.0]])
+        A = M / M[2, 2] if M.shape == (3, 3) else np.vstack([M, [0, 0, 1.0]])
         return Estimate(A, "align", self.occlusion(grey, A), score)
 
 
 class EccTracker(_GreyTemplate):
-    """OpenCV ECC (the paper's "LK-only") from the previous estimate: affine, projected to a similarity."""
+    """OpenCV ECC (the paper's "LK-only") from the previous estimate: affine, projected to a similarity
+    (or a homography with warp="homography")."""
 
     name = "ecc"
 
-    def __init__(self, iterations: int = 50, eps: float = 1e-4, gauss: int = 5):
+    def __init__(self, iterations: int = 50, eps: float = 1e-4, gauss: int = 5, warp: str = "similarity"):
         super().__init__()
+        self.warp = _check_warp(warp)
         check_number("ecc iterations", iterations, 1, integer=True)
         check_number("ecc eps", eps, 0, lo_open=True)
         check_number("ecc gauss", gauss, 1, integer=True)
@@ -85,10 +97,17 @@ class EccTracker(_GreyTemplate):
     def _update(self, frame) -> Estimate:
         grey = to_grey(frame)
         T = np.array([[1, 0, self.origin[0]], [0, 1, self.origin[1]], [0, 0, 1.0]])
-        W = (self.A @ T)[:2].astype(np.float32)  # template pixel → frame pixel
+        homography = self.warp == "homography"
+        W = (self.A @ T) if homography else (self.A @ T)[:2]  # template pixel → frame pixel
+        motion = cv2.MOTION_HOMOGRAPHY if homography else cv2.MOTION_AFFINE
         try:
-            score, W = cv2.findTransformECC(self.template, grey, W, cv2.MOTION_AFFINE, self.criteria, None, self.gauss)
+            score, W = cv2.findTransformECC(self.template, grey, W.astype(np.float32), motion, self.criteria, None,
+                                            self.gauss)
         except cv2.error:  # raised when ECC does not converge or the frame is degenerate
             return Estimate(self.A, "lost", self.occlusion(grey, self.A), 0.0)
-        A = project_similarity(np.vstack([W, [0, 0, 1.0]]) @ np.linalg.inv(T), self.center0)
+        if homography:
+            A = W.astype(float) @ np.linalg.inv(T)
+            A /= A[2, 2]
+        else:
+            A = project_similarity(np.vstack([W, [0, 0, 1.0]]) @ np.linalg.inv(T), self.center0)
         return Estimate(A, "align", self.occlusion(grey, A), float(score))

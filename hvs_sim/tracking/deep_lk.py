@@ -20,6 +20,7 @@ class DeepLKTracker(Tracker):
         super().__init__()
         self.config = config = config or DeepLKConfig()
         self.aligner = Aligner(config)
+        self.warp = config.warp
 
     def _init(self, frame, roi) -> None:
         self.aligner.set_template(frame, roi)

@@ -1,10 +1,13 @@
-"""Inverse-compositional Lucas–Kanade (Baker & Matthews) for a similarity warp on feature maps.
+"""Inverse-compositional Lucas–Kanade (Baker & Matthews) for a similarity or homography warp on feature maps.
 
-Coordinates are centred on the template and divided by ρ (half its larger side), so the four
-parameters p = (a, b, tx, ty) of W(x̃; p) = [[1 + a, −b, tx], [b, 1 + a, ty]] are of one scale.
+Coordinates are centred on the template and divided by ρ (half its larger side), so the
+parameters are of one scale: the four p = (a, b, tx, ty) of the similarity
+W(x̃; p) = [[1 + a, −b, tx], [b, 1 + a, ty]] (the paper's), or the eight of the homography
+[[1 + p1, p2, p3], [p4, 1 + p5, p6], [p7, p8, 1]] (a plane seen in perspective: pitch and yaw of
+the target change its shape, which a similarity cannot follow).
 The steepest-descent images and the per-point Gauss–Newton Hessians are computed once per
 template; every iteration samples the image features at the warped template points, solves a
-4×4 system and composes the inverse update: W ← W ∘ W(Δp)⁻¹.
+4×4 (8×8) system and composes the inverse update: W ← W ∘ W(Δp)⁻¹.
 
 Feature maps of stride σ (pool2: 4, pool1: 2, conv1_2: 1) cover input pixels σi … σi + σ − 1, so
 feature index i sits at pixel σi + (σ − 1)/2 of the crop it was computed on.
@@ -18,12 +21,28 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from hvs_sim.errors import ConfigError
+from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.tracking.nets.vgg import STRIDES
-from hvs_sim.tracking.warp import params_to_matrix
+from hvs_sim.tracking.warp import WARP_PARAMS, WARPS, apply, homography_params_to_matrix, params_to_matrix
 
 HUBER_K = 1.345  # Huber threshold in robust standard deviations (95 % efficiency on Gaussian residuals)
 MAD_TO_SIGMA = 1.4826  # median absolute deviation → standard deviation
+_UNIT_BOX = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])  # normalised template extent
+
+
+def warp_jacobian(pts: np.ndarray, warp: str) -> tuple[np.ndarray, np.ndarray]:
+    """dx'/dp and dy'/dp (N, P) of the warp at the identity, at normalised template points."""
+    x, y = pts[:, 0], pts[:, 1]
+    one, zero = np.ones(len(pts)), np.zeros(len(pts))
+    if warp == "similarity":  # x' = (1+a)x − b y + tx, y' = b x + (1+a) y + ty
+        return np.stack([x, -y, one, zero], 1), np.stack([y, x, zero, one], 1)
+    # x' = ((1+p1)x + p2 y + p3) / (p7 x + p8 y + 1), y' = (p4 x + (1+p5) y + p6) / (p7 x + p8 y + 1)
+    return (np.stack([x, y, one, zero, zero, zero, -x * x, -x * y], 1),
+            np.stack([zero, zero, zero, x, y, one, -x * y, -y * y], 1))
+
+
+def update_matrix(dp: np.ndarray, warp: str) -> np.ndarray:
+    return params_to_matrix(dp) if warp == "similarity" else homography_params_to_matrix(dp)
 
 
 @dataclass(frozen=True)
@@ -59,8 +78,8 @@ class _Level:
     stride: int
     pts: np.ndarray  # (N, 2) normalised template coordinates
     feats: torch.Tensor  # (N, C) template features
-    sd: torch.Tensor  # (N·C, 4) steepest-descent images, point-major
-    hess: np.ndarray  # (N, 16) per-point Gauss–Newton Hessians, flattened
+    sd: torch.Tensor  # (N·C, P) steepest-descent images, point-major (P = 4 similarity, 8 homography)
+    hess: np.ndarray  # (N, P²) per-point Gauss–Newton Hessians, flattened
     grid: tuple[int, int]  # the points form this (rows, cols) block of feature cells, row-major
 
 
@@ -76,8 +95,10 @@ class AlignResult:
 class FeatureICLK:
     """IC-LK of one template; `align` is called once per frame with that frame's feature maps."""
 
-    def __init__(self, config: LKConfig = LKConfig()):
-        self.config = config
+    def __init__(self, config: LKConfig = LKConfig(), warp: str = "similarity"):
+        if warp not in WARPS:
+            raise choice_error("warp", warp, WARPS)
+        self.config, self.warp, self.n_params = config, warp, WARP_PARAMS[warp]
         self.levels: list[_Level] = []
 
     def set_template(self, feats: dict[str, torch.Tensor], origin: np.ndarray, center: np.ndarray, rho: float,
@@ -102,12 +123,11 @@ class FeatureICLK:
             gx = (fmap[:, ii, jj + 1] - fmap[:, ii, jj - 1]).T / (2.0 * s)  # per work pixel
             gy = (fmap[:, ii + 1, jj] - fmap[:, ii - 1, jj]).T / (2.0 * s)
             pts = (px - self.center) / self.rho
-            # dW/dp at identity for p = (a, b, tx, ty): x' = (1+a)x − b y + tx, y' = b x + (1+a) y + ty
-            jx = torch.from_numpy(np.stack([pts[:, 0], -pts[:, 1], np.ones(len(pts)), np.zeros(len(pts))], 1)).float()
-            jy = torch.from_numpy(np.stack([pts[:, 1], pts[:, 0], np.zeros(len(pts)), np.ones(len(pts))], 1)).float()
+            jx, jy = (torch.from_numpy(j).float() for j in warp_jacobian(pts, self.warp))
             sd = (gx * self.rho)[:, :, None] * jx[:, None, :] + (gy * self.rho)[:, :, None] * jy[:, None, :]
-            hess = torch.einsum("nci,ncj->nij", sd, sd).double().numpy().reshape(-1, 16)
-            self.levels.append(_Level(name, s, pts, f, sd.reshape(-1, 4).contiguous(), hess, grid))
+            P = self.n_params
+            hess = torch.einsum("nci,ncj->nij", sd, sd).double().numpy().reshape(-1, P * P)
+            self.levels.append(_Level(name, s, pts, f, sd.reshape(-1, P).contiguous(), hess, grid))
 
     def level(self, name: str) -> _Level:
         return next(lv for lv in self.levels if lv.name == name)
@@ -135,7 +155,13 @@ class FeatureICLK:
         return torch.linalg.vector_norm(sampled - lv.feats, dim=1).double().numpy(), inside
 
     def to_work(self, M: np.ndarray, pts: np.ndarray) -> np.ndarray:
-        return self.center + self.rho * (pts @ M[:2, :2].T + M[:2, 2])
+        return self.center + self.rho * apply(M, pts)
+
+    def update_size(self, dp: np.ndarray) -> float:
+        """How far an update moves template points (work px), taken at the template's extent."""
+        if self.warp == "similarity":  # the paper's rule, kept as it was
+            return self.rho * float(np.abs(dp).sum())
+        return self.rho * float(np.abs(apply(update_matrix(dp, self.warp), _UNIT_BOX) - _UNIT_BOX).max())
 
     def align(self, feats: dict[str, torch.Tensor], origin: np.ndarray, crop_shape: tuple[int, int],
               M0: np.ndarray) -> AlignResult:
@@ -162,19 +188,20 @@ class FeatureICLK:
                 if self.config.robust:
                     k = HUBER_K * max(MAD_TO_SIGMA * np.median(r), 1e-6)
                     w = np.where(r <= k, 1.0, k / np.maximum(r, 1e-12))
-                C = err.shape[1]
-                sd = level.sd if all_valid else level.sd.view(-1, C, 4)[torch.from_numpy(valid)].reshape(-1, 4)
+                C, P = err.shape[1], self.n_params
+                sd = level.sd if all_valid else level.sd.view(-1, C, P)[torch.from_numpy(valid)].reshape(-1, P)
                 b = ((err * torch.from_numpy(w).float()[:, None]).reshape(1, -1) @ sd)[0].double().numpy()
-                H = (w @ (level.hess if all_valid else level.hess[valid])).reshape(4, 4)
+                H = (w @ (level.hess if all_valid else level.hess[valid])).reshape(P, P)
                 try:
                     dp = np.linalg.solve(H, b)
                 except np.linalg.LinAlgError:
                     return AlignResult(M, total, valid_share, float("nan"), per_level)
-                M = M @ np.linalg.inv(params_to_matrix(dp))
+                M = M @ np.linalg.inv(update_matrix(dp, self.warp))
+                if self.warp == "homography":
+                    M = M / M[2, 2]
                 total += 1
                 rms = float(np.sqrt(np.mean(r ** 2)))
-                # how far the update moves template points (work px), taken at the template's extent
-                if self.rho * (abs(dp[0]) + abs(dp[1]) + abs(dp[2]) + abs(dp[3])) < self.config.eps * level.stride:
+                if self.update_size(dp) < self.config.eps * level.stride:
                     break
             per_level.append((level.name, total))
         return AlignResult(M, total, valid_share, rms, per_level)

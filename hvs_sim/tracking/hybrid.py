@@ -177,6 +177,7 @@ class HybridTracker(Tracker):
         self.hconfig = config
         self.config = config.deep
         self.aligner = Aligner(config.deep)
+        self.warp = config.deep.warp
         predictor = make_predictor(config.predictor, config.history, config.gru_weights)
         self.sources: list[MotionSource] = []
         if config.background and config.reanchor:

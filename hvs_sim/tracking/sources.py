@@ -23,7 +23,7 @@ import numpy as np
 from hvs_sim.tracking.background import BackgroundConfig, BackgroundMotion, KeyframeAnchor
 from hvs_sim.tracking.base import Mode
 from hvs_sim.tracking.predictors import MotionPredictor
-from hvs_sim.tracking.warp import matrix_to_pose, pose_to_matrix
+from hvs_sim.tracking.warp import matrix_to_pose, translate
 
 if TYPE_CHECKING:  # pragma: no cover
     from hvs_sim.tracking.aligner import Aligner
@@ -72,7 +72,7 @@ class KeyframeAnchorSource:
 
     def __init__(self, aligner: Aligner, config: BackgroundConfig, gate_px: float):
         self.aligner, self.gate_px = aligner, gate_px
-        self.anchor = KeyframeAnchor(config)
+        self.anchor = KeyframeAnchor(config, aligner.config.warp)
 
     def reset(self, state: HybridState) -> None:
         self.anchor.reset()
@@ -173,9 +173,9 @@ class PredictorSource:
     def propose(self, work, state):
         if state.predict_run + 1 > self.max_frames:
             return Proposal(state.A, Kind.PREDICTED, Mode.LOST, self.name)
-        pose = matrix_to_pose(state.A, state.center0)
-        pose[:2] = self.predictor.predict()
-        return Proposal(pose_to_matrix(pose, state.center0), Kind.PREDICTED, Mode.PREDICT, self.name)
+        # the target's centre moved to the prediction, its shape (θ, s, perspective) held
+        A = translate(state.A, self.predictor.predict() - _translation(state.A, state.center0))
+        return Proposal(A, Kind.PREDICTED, Mode.PREDICT, self.name)
 
     def on_aligned(self, work, state):
         self.predictor.observe(_translation(state.A, state.center0))

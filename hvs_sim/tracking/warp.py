@@ -1,7 +1,8 @@
-"""2-D similarity warps as 3×3 matrices, and the tracker pose (tx, ty, θ, s) they stand for.
+"""2-D warps as 3×3 matrices (similarity or homography), and the tracker pose (tx, ty, θ, s) they stand for.
 
 A pose is relative to the template at init: a template point x maps to c + t + s·R(θ)(x − c),
-c being the template centre in the frame.
+c being the template centre in the frame. For a homography the pose is its local similarity at
+the template centre (where the centre goes, and the rotation and scale of the warp there).
 """
 
 from __future__ import annotations
@@ -9,6 +10,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+WARPS = ("similarity", "homography")  # the warp models a tracker can estimate (`warp=` setting)
+WARP_PARAMS = {"similarity": 4, "homography": 8}
 
 
 def similarity(tx: float, ty: float, theta: float, scale: float) -> np.ndarray:
@@ -22,6 +26,22 @@ def params_to_matrix(p: np.ndarray) -> np.ndarray:
     return np.array([[1.0 + a, -b, tx], [b, 1.0 + a, ty], [0.0, 0.0, 1.0]])
 
 
+def homography_params_to_matrix(p: np.ndarray) -> np.ndarray:
+    """LK parameterisation of a homography, p = (p1 … p8): [[1 + p1, p2, p3], [p4, 1 + p5, p6], [p7, p8, 1]]."""
+    return np.array([[1.0 + p[0], p[1], p[2]], [p[3], 1.0 + p[4], p[5]], [p[6], p[7], 1.0]])
+
+
+def translate(A: np.ndarray, delta) -> np.ndarray:
+    """A followed by an image translation by `delta` (moves the whole warped template, any warp model)."""
+    T = np.eye(3)
+    T[:2, 2] = delta
+    return T @ A
+
+
+def is_affine(A: np.ndarray) -> bool:
+    return bool(A[2, 0] == 0.0 and A[2, 1] == 0.0 and A[2, 2] == 1.0)
+
+
 def pose_to_matrix(pose, center) -> np.ndarray:
     """Frame-from-template matrix of a pose about the template centre `center`."""
     tx, ty, theta, scale = pose
@@ -30,8 +50,23 @@ def pose_to_matrix(pose, center) -> np.ndarray:
         np.array([[1, 0, -cx], [0, 1, -cy], [0, 0, 1.0]])
 
 
+def local_affine(A: np.ndarray, center) -> np.ndarray:
+    """The affine map that agrees with the warp A to first order at `center` (A itself when affine)."""
+    if is_affine(A):
+        return A
+    c = np.asarray(center, float)
+    w = float(A[2, :2] @ c + A[2, 2])
+    moved = (A[:2, :2] @ c + A[:2, 2]) / w
+    J = (A[:2, :2] - np.outer(moved, A[2, :2])) / w  # Jacobian of the projective map at c
+    out = np.eye(3)
+    out[:2, :2] = J
+    out[:2, 2] = moved - J @ c
+    return out
+
+
 def matrix_to_pose(A: np.ndarray, center) -> np.ndarray:
-    """Inverse of `pose_to_matrix` (projects any 2×3 affine part onto the nearest similarity)."""
+    """Inverse of `pose_to_matrix` (projects the warp's local affine part at the centre onto the nearest similarity)."""
+    A = local_affine(A, center)
     a = 0.5 * (A[0, 0] + A[1, 1])
     b = 0.5 * (A[1, 0] - A[0, 1])
     c = np.asarray(center, float)
@@ -51,8 +86,13 @@ def project_similarity(A: np.ndarray, center) -> np.ndarray:
 
 
 def apply(A: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Points (N, 2) through the warp A (affine or projective)."""
     pts = np.asarray(pts, float)
-    return pts @ A[:2, :2].T + A[:2, 2]
+    out = pts @ A[:2, :2].T + A[:2, 2]
+    if is_affine(A):
+        return out
+    w = pts @ A[2, :2] + A[2, 2]
+    return out / w[:, None]
 
 
 def fit_similarity(src: np.ndarray, dst: np.ndarray) -> np.ndarray:

@@ -1,0 +1,56 @@
+"""Position-based visual servoing beside IBVS: the target's pose from the tracked corners, then the
+classic PBVS law on the camera's displacement (Chaumette & Hutchinson 2006, e = (c*t_c, θu)).
+
+The target model is what the controller is given for IBVS too: the desired corners s* seen at the
+desired depth Z* with the target plane facing the camera, i.e. P_i = Z* K⁻¹ (u*_i, v*_i, 1). The
+current pose cTo of that model comes from the tracked corners (cv2.solvePnP, IPPE: exact for four
+coplanar points), and with the model in the desired camera frame c*To = I, so c*Tc = (cTo)⁻¹ and
+
+    v = −λ c*R_cᵀ c*t_c = λ t,    ω = −λ θu(c*R_c) = λ θu(R),    where cTo = (R, t).
+
+The camera then moves on a straight line to the goal (the target may leave the view on the way,
+which the servo benchmark counts). The gain schedule, the predict-mode gain, the lost rule and the
+twist bounds are IBVS's (IBVSConfig), so the two laws differ only in the error they regulate.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from hvs_sim.control.ibvs import DOF_NAMES, ControlOutput, IBVSConfig, IBVSController, bound_twist
+from hvs_sim.errors import InputError
+
+
+class PBVSController:
+    """PBVS to the pose that shows the desired corners s* (pixels) at depth Z*, given intrinsics K."""
+
+    def __init__(self, K: np.ndarray, desired_px: np.ndarray, desired_depth: float, config: IBVSConfig | None = None,
+                 dofs: tuple[str, ...] = DOF_NAMES):
+        config = config or IBVSConfig()
+        # the same checks and normalisation as IBVS (and its image error for the gain schedule)
+        self.image = IBVSController(K, desired_px, desired_depth, config, dofs)
+        self.config, self.K, self.desired_px = config, self.image.K, self.image.desired_px
+        self.dofs, self.cols = self.image.dofs, self.image.cols
+        s_star = self.image.s_star
+        self.model = np.column_stack([s_star * desired_depth, np.full(len(s_star), desired_depth)])
+
+    def pose(self, features_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(R, t) of the target model in the current camera frame from the corners (pixels)."""
+        ok, rvec, tvec = cv2.solvePnP(self.model, np.asarray(features_px, np.float64).reshape(-1, 1, 2), self.K, None,
+                                      flags=cv2.SOLVEPNP_IPPE)
+        if not ok or not np.all(np.isfinite(rvec)) or not np.all(np.isfinite(tvec)):
+            raise InputError("PBVS: the target's pose could not be estimated from these corners")
+        return cv2.Rodrigues(rvec)[0], tvec.reshape(3)
+
+    def compute(self, features_px: np.ndarray, depths: np.ndarray | None = None, mode: str = "align") -> ControlOutput:
+        """Twist for the current corners (pixels); `depths` is not used (the pose gives them)."""
+        img = self.image.compute(features_px, None if self.config.depth != "true" else depths, mode)
+        twist = np.zeros(6)
+        if mode != "lost":
+            R, t = self.pose(features_px)
+            theta_u = cv2.Rodrigues(R)[0].reshape(3)
+            full = img.gain * np.concatenate([t, theta_u])
+            twist[self.cols] = full[self.cols]
+        twist, saturated = bound_twist(twist, self.config.max_linear, self.config.max_angular)
+        return ControlOutput(twist, img.error, img.error_px, img.gain, saturated, img.singular_values)
