@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 import shutil
 import sys
 from pathlib import Path
@@ -98,12 +99,22 @@ def cmd_run(args) -> int:
     if args.figures:
         prepare_out_dir(args.figures, "--figures")
     settings = parse_settings(args.set)  # checked where the loop builds its tracker, before the scene
+    if args.warp is not None:
+        if args.tracker == "ground_truth":
+            raise ConfigError("--warp selects a tracker's warp model; ground_truth features are already perspective "
+                              "corners: leave --warp out")
+        if "warp" in settings and settings["warp"] != args.warp:
+            raise ConfigError(f"--warp {args.warp} and --set warp={settings['warp']} disagree: give one")
+        settings["warp"] = args.warp
     scenario = _scenario_from_args(args)
-    config = LoopConfig(steps=args.steps)
+    if args.start_offset is not None:
+        scenario = dataclasses.replace(scenario, start_offset=parse_start_offset(args.start_offset))
+    config = LoopConfig(steps=args.steps, controller=args.controller)
     summary, records = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,
                                    keep_records=bool(args.rrd or args.spawn or args.figures),
                                    tracker_settings=settings)
-    brief = {k: summary[k] for k in ("converged", "steps_to_converge", "final_error_px", "max_error_px_during_occlusion",
+    brief = {k: summary[k] for k in ("converged", "steps_to_converge", "final_error_px", "final_pose_error_mm",
+                                     "final_pose_error_deg", "controlled_dofs", "max_error_px_during_occlusion",
                                      "lost_steps", "predict_steps", "fault_steps", "steps_per_second")}
     print(json.dumps(brief, indent=2))
     if args.json:
@@ -124,6 +135,17 @@ def add_settings_option(p: argparse.ArgumentParser) -> None:
                    help="a tracker setting (a field of its config; repeat for more), e.g. --set "
                         "residual_weights=out/weights/residual.pt --set gru_weights=out/weights/gru.pt; an unknown "
                         "key is an error that lists the accepted ones")
+
+
+def parse_start_offset(text: str) -> tuple[float, ...]:
+    """"dx,dy,dz,roll,pitch,yaw" (metres, degrees) → the scenario's start_offset (metres, radians)."""
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != 6 or not all(math.isfinite(v) for v in values):
+        raise ConfigError(f"--start-offset takes six numbers dx,dy,dz,roll,pitch,yaw (metres, degrees), got {text!r}")
+    return tuple(values[:3]) + tuple(math.radians(v) for v in values[3:])
 
 
 def parse_settings(items: list[str]) -> dict:
@@ -402,6 +424,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"one of: {', '.join(loop_trackers)} (default {DEFAULT_TRACKER}; the hybrid_* names are "
                         "its ablations, see hvs_sim/tracking/registry.py)")
     p.add_argument("--steps", type=int, default=240, help="control steps at 30 Hz")
+    p.add_argument("--warp", default=None, choices=("similarity", "homography"),
+                   help="the tracker's warp model (default: the tracker's, similarity); homography gives perspective "
+                        "corners, and the controller then commands all six DOF")
+    p.add_argument("--controller", default="ibvs", choices=("ibvs", "pbvs"), help="the servo law")
+    p.add_argument("--start-offset", default=None, metavar="DX,DY,DZ,ROLL,PITCH,YAW",
+                   help="start pose relative to the reference pose, camera frame (metres, degrees); default: the "
+                        "scenario's (0.03,-0.02,0.06,6,0,0)")
     p.add_argument("--json", default=None, help="write the run summary here")
     p.add_argument("--rrd", default=None, help="save a rerun recording here")
     p.add_argument("--spawn", action="store_true", help="open the rerun viewer")

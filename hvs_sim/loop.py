@@ -9,6 +9,7 @@ from __future__ import annotations
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
+from itertools import pairwise
 
 import numpy as np
 
@@ -82,9 +83,29 @@ class StepRecord:
     pose_error: np.ndarray = field(default_factory=lambda: np.zeros(6))
     singular_values: np.ndarray = field(default_factory=lambda: np.zeros(0))  # of the controlled columns of L
     dofs: tuple[str, ...] = DOF_NAMES  # the DOFs the controller commands
+    target_in_view: bool = True  # all four true target corners inside the image
     controlled_pose_error: tuple[float, float] = (0.0, 0.0)  # (mm, deg) of pose_error in those DOFs
     people: list = field(default_factory=list)  # (feet position, orientation) of each person
     arm: tuple | None = None  # (positions (k, 3), orientations (k, 3, 3)) of the arm's meshes (Scene.arm_meshes)
+
+
+def check_start_in_view(scene: Scene, renderer: Renderer) -> None:
+    """ConfigError unless all four target corners are inside the image from the scenario's start pose."""
+    start_pos, start_R = scene.start_pose()
+    px = renderer.project(CameraPose(start_R, start_pos), renderer.target_corners_world())
+    cam, m = scene.scenario.camera, IN_VIEW_MARGIN_PX
+    inside = (px[:, 0] >= m) & (px[:, 0] <= cam.width - 1 - m) & (px[:, 1] >= m) & (px[:, 1] <= cam.height - 1 - m)
+    if not np.all(np.isfinite(px)) or not inside.all():
+        raise ConfigError(f"from the start offset {scene.scenario.start_offset_text} the target is not fully in view "
+                          f"(its corners at {np.round(px, 1).tolist()} px in a {cam.width}×{cam.height} image): "
+                          "give a smaller offset")
+
+
+def check_start_pose(scenario: Scenario) -> None:
+    """ConfigError when the arm cannot reach the scenario's start pose or the target is not fully in view
+    from it (builds the scene, renders nothing)."""
+    scene = Scene(scenario)
+    check_start_in_view(scene, Renderer(scene))
 
 
 def loop_tracker(tracker: str, settings: dict) -> Tracker | None:
@@ -115,21 +136,15 @@ class ServoLoop:
         ref_pos, ref_R = self.scene.reference_pose()
         self.flag_desired = self.renderer.project(CameraPose(ref_R, ref_pos), self.renderer.target_corners_world())
         self.desired_depth = float(scenario.standoff)
-        self._check_start_in_view()
+        check_start_in_view(self.scene, self.renderer)
         # the DOFs the features observe: ground truth and a homography tracker give perspective corners
         self.warp = "homography" if self.tracker is None else getattr(self.tracker, "warp", "similarity")
         self.dofs = tuple(config.ibvs.dofs or dofs_for(self.warp))
 
-    def _check_start_in_view(self) -> None:
-        start_pos, start_R = self.scene.start_pose()
-        px = self.renderer.project(CameraPose(start_R, start_pos), self.renderer.target_corners_world())
+
+    def _in_view(self, px: np.ndarray) -> bool:
         cam = self.scenario.camera
-        m = IN_VIEW_MARGIN_PX
-        inside = (px[:, 0] >= m) & (px[:, 0] <= cam.width - 1 - m) & (px[:, 1] >= m) & (px[:, 1] <= cam.height - 1 - m)
-        if not np.all(np.isfinite(px)) or not inside.all():
-            raise ConfigError(f"from the start offset {self.scenario.start_offset_text} the target is not fully in view "
-                              f"(its corners at {np.round(px, 1).tolist()} px in a {cam.width}×{cam.height} image): "
-                              "give a smaller offset")
+        return bool(np.all(np.isfinite(px)) and np.all((px >= 0) & (px <= [cam.width - 1, cam.height - 1])))
 
     def controlled_pose_error(self, pose_error: np.ndarray) -> tuple[float, float]:
         """(mm, deg) of the pose error in the DOFs this loop controls."""
@@ -201,7 +216,7 @@ class ServoLoop:
                 tracker_error_px=float(np.linalg.norm(features - gt_features, axis=1).mean()) if fault is None else float("nan"),
                 occlusion=gt.occlusion, twist=twist, qdot=cmd.qdot, q=gt.joint_positions, camera=gt.camera, gain=gain,
                 saturated=sat or cmd.velocity_saturated, limit_blocked=cmd.limit_blocked, fault=fault, timings=timings,
-                pose_error=pose_err, singular_values=sv, dofs=self.dofs,
+                pose_error=pose_err, singular_values=sv, dofs=self.dofs, target_in_view=self._in_view(gt.corners),
                 controlled_pose_error=self.controlled_pose_error(pose_err), people=scene.people_poses(), arm=scene.arm_poses())
             t0 = time.perf_counter()
             scene.advance(cmd.qdot)
@@ -248,6 +263,8 @@ def summarize_run(records: list[StepRecord], config: LoopConfig) -> dict:
                                      (float(v) for v in final.pose_error))),
         "final_controlled_pose_error_mm": float(final.controlled_pose_error[0]),
         "final_controlled_pose_error_deg": float(final.controlled_pose_error[1]),
+        "camera_path_m": float(sum(np.linalg.norm(b.camera.t - a.camera.t) for a, b in pairwise(records))),
+        "target_out_of_view_steps": int(sum(not r.target_in_view for r in records)),
         "max_condition_number": float(max(conds)) if conds else None,
         "min_rank": int(min(ranks)) if ranks else None,
         "converged": steps_to_converge is not None,

@@ -1,4 +1,11 @@
-"""`hvs-sim bench servo`: closed-loop convergence under occlusion from random initial offsets."""
+"""`hvs-sim bench servo`: closed-loop convergence under occlusion from random 6-DOF start poses.
+
+A method is a loop tracker with, optionally, its warp model and the servo law:
+`TRACKER[:homography][/pbvs]`, e.g. `ground_truth`, `ground_truth/pbvs`, `hybrid:homography`, `hybrid`
+(the similarity hybrid, which controls 4 DOF). Start poses are drawn over the ranges of the classic
+IBVS test cases (ViSP's tutorials, Chaumette's examples), scaled to the 0.8 m standoff: lateral
+±10 cm, depth 0.7–1.4 × the standoff, roll ±60°, pitch and yaw ±15°; a draw the arm cannot reach or
+from which the target is not fully in view is drawn again (seeded)."""
 
 from __future__ import annotations
 
@@ -15,10 +22,11 @@ from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.loop import LoopConfig
 from hvs_sim.validate import check_number
 
-SERVO_TRACKERS = ("ground_truth", "hybrid", "deep_lk_residual", "deep_lk", "ecc")
-# initial offsets (camera frame): x, y within ±4 cm, depth −4…+10 cm, roll within ±0.25 rad
-OFFSET_LOW = np.array([-0.04, -0.04, -0.04, -0.25])
-OFFSET_HIGH = np.array([0.04, 0.04, 0.10, 0.25])
+SERVO_METHODS = ("ground_truth", "ground_truth/pbvs", "hybrid:homography", "hybrid:homography/pbvs", "hybrid")
+# start offsets (camera frame): dx, dy (m), dz as a share of the standoff, roll, pitch, yaw (rad)
+LATERAL_M, DEPTH_RANGE = 0.10, (0.7, 1.4)
+ROLL_MAX, TILT_MAX = np.radians(60.0), np.radians(15.0)
+MAX_DRAWS = 50  # start poses drawn per episode before giving up (unreachable or target out of view)
 
 
 EXTRA_STEPS = 60  # an episode runs this long past the scenario's end, to see the recovery
@@ -27,9 +35,9 @@ SUCCESS_PX = 1.0  # success = converged and final ground-truth error ≤ this
 
 @dataclass(frozen=True)
 class ServoBenchConfig:
-    trackers: tuple[str, ...] = SERVO_TRACKERS
-    scenarios: tuple[str, ...] = ("walk_by", "pause")
-    episodes: int = 10
+    trackers: tuple[str, ...] = SERVO_METHODS  # methods: TRACKER[:homography][/pbvs] (module docstring)
+    scenarios: tuple[str, ...] = ("clear", "walk_by", "pause")
+    episodes: int = 20
     seed0: int = 200
     extra_steps: int = EXTRA_STEPS
     steps: int | None = None  # overrides scenario length + extra_steps (smoke runs)
@@ -44,7 +52,10 @@ class ServoBenchConfig:
         from hvs_sim.loop import LOOP_TRACKERS
         from hvs_sim.scene.scenarios import PEOPLE_STYLES, SCENARIO_NAMES
 
-        for what, values, accepted in (("tracker", self.trackers, LOOP_TRACKERS), ("scenario", self.scenarios, SCENARIO_NAMES),
+        for m in self.trackers:
+            parse_method(m)
+        for what, values, accepted in (("tracker", [parse_method(m)[0] for m in self.trackers], LOOP_TRACKERS),
+                                       ("scenario", self.scenarios, SCENARIO_NAMES),
                                        ("people style", (self.people,), PEOPLE_STYLES)):
             if not values:
                 raise ConfigError(f"the servo benchmark needs at least one {what}; accepted: {', '.join(accepted)}")
@@ -70,29 +81,73 @@ class ServoBenchConfig:
         return list(self.seeds) if self.seeds is not None else [self.seed0 + i for i in range(self.episodes)]
 
 
-def episode_offset(seed: int) -> tuple[float, ...]:
-    rng = np.random.default_rng([seed, 11])
-    return tuple(float(v) for v in rng.uniform(OFFSET_LOW, OFFSET_HIGH))
+def parse_method(method: str) -> tuple[str, str | None, str]:
+    """`TRACKER[:WARP][/CONTROLLER]` → (tracker, warp or None, controller)."""
+    from hvs_sim.control.ibvs import CONTROLLERS
+    from hvs_sim.tracking.warp import WARPS
+
+    rest, _, controller = method.partition("/")
+    tracker, _, warp = rest.partition(":")
+    controller = controller or "ibvs"
+    if controller not in CONTROLLERS or (warp and warp not in WARPS) or (warp and tracker == "ground_truth"):
+        raise ConfigError(f"servo method {method!r} invalid; accepted: TRACKER[:WARP][/CONTROLLER] with WARP one of "
+                          f"{', '.join(WARPS)} (not for ground_truth) and CONTROLLER one of {', '.join(CONTROLLERS)}, "
+                          "e.g. hybrid:homography/pbvs")
+    return tracker, warp or None, controller
+
+
+def offset_range(standoff: float) -> tuple[np.ndarray, np.ndarray]:
+    lo = np.array([-LATERAL_M, -LATERAL_M, (DEPTH_RANGE[0] - 1) * standoff, -ROLL_MAX, -TILT_MAX, -TILT_MAX])
+    return lo, -lo * [1, 1, 0, 1, 1, 1] + [0, 0, (DEPTH_RANGE[1] - 1) * standoff, 0, 0, 0]
+
+
+def episode_offset(seed: int, standoff: float = 0.8, draw: int = 0) -> tuple[float, ...]:
+    """The `draw`-th candidate start offset of episode `seed` (dx, dy, dz m; roll, pitch, yaw rad)."""
+    rng = np.random.default_rng([seed, 11, draw])
+    return tuple(float(v) for v in rng.uniform(*offset_range(standoff)))
+
+
+def episode_scenario(scen_name: str, seed: int, **overrides):
+    """The episode's scenario with the first drawn start pose that the arm reaches and from which
+    the target is fully in view (the same for every method of that seed)."""
+    from hvs_sim.loop import check_start_pose
+    from hvs_sim.scene.scenarios import make_scenario
+
+    last = None
+    for draw in range(MAX_DRAWS):
+        scen = make_scenario(scen_name, mount="arm", seed=seed, **overrides)
+        scen = make_scenario(scen_name, mount="arm", seed=seed, start_offset=episode_offset(seed, scen.standoff, draw),
+                             **overrides)
+        try:
+            check_start_pose(scen)
+            return scen
+        except ConfigError as exc:
+            last = exc
+    raise ConfigError(f"no usable start pose in {MAX_DRAWS} draws for episode {seed}: {last}")
 
 
 def _episode(args):
     import torch
 
     from hvs_sim.runner import run_episode
-    from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+    from hvs_sim.scene.scenarios import CameraConfig
 
-    scen_name, tracker, seed, steps, extra, keep, camera, people = args
+    scen_name, method, seed, steps, extra, keep, camera, people = args
     torch.set_num_threads(1 if os.environ.get("HVS_WORKERS", "1") != "1" else 2)
-    scen = make_scenario(scen_name, mount="arm", seed=seed, start_offset=episode_offset(seed),
-                         camera=CameraConfig(sensor=camera), people=people)
+    tracker, warp, controller = parse_method(method)
+    scen = episode_scenario(scen_name, seed, camera=CameraConfig(sensor=camera), people=people)
     n = steps if steps else scen.n_frames + extra
-    summary, records = run_episode(scen, tracker, LoopConfig(steps=n, keep_frames=False), progress=False)
+    summary, records = run_episode(scen, tracker, LoopConfig(steps=n, keep_frames=False, controller=controller),
+                                   progress=False, tracker_settings={"warp": warp} if warp else None)
+    summary["method"] = method
     summary["start_offset"] = list(scen.start_offset)
     trace = None
     if keep:
         trace = [{"time": r.time, "error_px": r.error_px, "gt_features": r.gt_features.tolist(), "desired": r.desired.tolist(),
-                  "twist": r.twist.tolist(), "occlusion": r.occlusion} for r in records]
-    return (scen_name, tracker, seed), summary, trace
+                  "twist": r.twist.tolist(), "occlusion": r.occlusion, "pose_error": r.pose_error.tolist(),
+                  "condition": float(r.singular_values.max() / r.singular_values.min())
+                  if len(r.singular_values) and r.singular_values.min() > 0 else None} for r in records]
+    return (scen_name, method, seed), summary, trace
 
 
 def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) -> dict:
@@ -107,9 +162,11 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
     episodes, traces = {}, {}
     for key, summ, trace in collect_jobs(_episode, jobs, config, out, "bench servo", "episode", progress):
         episodes[key], traces[key] = summ, trace
+    lo, hi = offset_range(0.8)
     summary = {"config": config_json(config),
-               "offset_range": {"low": OFFSET_LOW.tolist(), "high": OFFSET_HIGH.tolist(),
-                                "axes": "dx, dy, dz (m, camera frame), roll (rad)"},
+               "offset_range": {"low": lo.tolist(), "high": hi.tolist(),
+                                "axes": "dx, dy, dz (m, camera frame), roll, pitch, yaw (rad); standoff 0.8 m",
+                                "note": "draws the arm cannot reach or with the target out of view are drawn again"},
                "results": {}, "episodes": [dict(e) for e in episodes.values()]}
     for s in config.scenarios:
         for t in config.trackers:
@@ -122,6 +179,14 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
                 "converged_rate": float(np.mean([e["converged"] for e in eps])),
                 "median_seconds_to_converge": float(np.median(conv)) if conv else None,
                 "median_final_error_px": float(np.median([e["final_error_px"] for e in eps])),
+                "median_final_pose_error_mm": float(np.median([e["final_pose_error_mm"] for e in eps])),
+                "median_final_pose_error_deg": float(np.median([e["final_pose_error_deg"] for e in eps])),
+                "max_final_pose_error_mm": float(np.max([e["final_pose_error_mm"] for e in eps])),
+                "max_final_pose_error_deg": float(np.max([e["final_pose_error_deg"] for e in eps])),
+                "controlled_dofs": eps[0]["controlled_dofs"],
+                "median_camera_path_m": float(np.median([e["camera_path_m"] for e in eps])),
+                "episodes_target_left_view": int(sum(e["target_out_of_view_steps"] > 0 for e in eps)),
+                "median_max_condition_number": float(np.median([e["max_condition_number"] or np.inf for e in eps])),
                 "max_final_error_px": float(np.max([e["final_error_px"] for e in eps])),
                 "median_max_error_during_occlusion_px": float(np.median(occ)) if occ else None,
                 "mean_lost_steps": float(np.mean([e["lost_steps"] for e in eps])),
@@ -138,15 +203,20 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
 def servo_table(summary: dict, config: ServoBenchConfig) -> str:
     lines = []
     for s, per in summary["results"].items():
-        lines += [f"## {s} ({len(config.episode_seeds)} episodes per tracker, success = converged and final error ≤ {config.success_px} px)", "",
-                  ("| tracker | success | converged | median time to converge (s) | median final error (px) | max final error (px) "
-                  "| median max error in occlusion (px) | lost steps | predict steps | steps/s |"),
-                  "|---|---|---|---|---|---|---|---|---|---|"]
+        lines += [(f"## {s} ({len(config.episode_seeds)} episodes per method; success = converged (image error and the "
+                  f"pose error in the controlled DOFs under their bounds) and final error ≤ {config.success_px} px)"), "",
+                  ("| method | DOFs | success | converged | median time to converge (s) | median final error (px) "
+                   "| median final pose error (mm / °) | max final pose error (mm / °) | camera path (m) "
+                   "| target left view | median max error in occlusion (px) | median max cond(L) | steps/s |"),
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for t, r in per.items():
             conv_t = "–" if r["median_seconds_to_converge"] is None else f"{r['median_seconds_to_converge']:.2f}"
             occ = "–" if r["median_max_error_during_occlusion_px"] is None else f"{r['median_max_error_during_occlusion_px']:.1f}"
-            lines.append(f"| {t} | {100 * r['success_rate']:.0f} % | {100 * r['converged_rate']:.0f} % | {conv_t} | "
-                         f"{r['median_final_error_px']:.2f} | {r['max_final_error_px']:.2f} | {occ} | {r['mean_lost_steps']:.1f} | "
-                         f"{r['mean_predict_steps']:.1f} | {r['steps_per_second']:.1f} |")
+            lines.append(f"| {t} | {len(r['controlled_dofs'])} | {100 * r['success_rate']:.0f} % | {100 * r['converged_rate']:.0f} % "
+                         f"| {conv_t} | {r['median_final_error_px']:.2f} | {r['median_final_pose_error_mm']:.1f} / "
+                         f"{r['median_final_pose_error_deg']:.2f} | {r['max_final_pose_error_mm']:.1f} / "
+                         f"{r['max_final_pose_error_deg']:.2f} | {r['median_camera_path_m']:.2f} | "
+                         f"{r['episodes_target_left_view']} of {r['episodes']} | {occ} | "
+                         f"{r['median_max_condition_number']:.0f} | {r['steps_per_second']:.1f} |")
         lines.append("")
     return "\n".join(lines)

@@ -72,9 +72,42 @@ def roi_corners(roi) -> np.ndarray:
 
 
 def roi_from_corners(corners: np.ndarray) -> tuple[int, int, int, int]:
-    """Integer ROI inside the target's projected outline (axis-aligned box of its inner edges)."""
+    """Integer ROI inside the target's projected outline: the axis-aligned box of its inner edges, or,
+    when the target is turned far about the optical axis (that box thins to a sliver), the largest
+    box centred on it that fits inside the outline."""
     x0 = int(np.ceil(np.sort(corners[:, 0])[1]))
     x1 = int(np.floor(np.sort(corners[:, 0])[2]))
     y0 = int(np.ceil(np.sort(corners[:, 1])[1]))
     y1 = int(np.floor(np.sort(corners[:, 1])[2]))
-    return x0, y0, x1 - x0 + 1, y1 - y0 + 1
+    inner = (x0, y0, x1 - x0 + 1, y1 - y0 + 1)
+    centred = _inscribed_box(np.asarray(corners, float))
+    if centred is not None and centred[2] * centred[3] > INSCRIBED_GAIN * max(inner[2], 0) * max(inner[3], 0):
+        return centred
+    return inner
+
+
+INSCRIBED_GAIN = 1.2  # the centred box replaces the inner-edge box only when clearly larger (large rolls)
+
+
+def _inside_convex(quad: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    edges = np.roll(quad, -1, axis=0) - quad
+    rel = pts[:, None, :] - quad[None]
+    cross = edges[None, :, 0] * rel[..., 1] - edges[None, :, 1] * rel[..., 0]
+    return np.all(cross >= 0, axis=1) | np.all(cross <= 0, axis=1)
+
+
+def _inscribed_box(quad: np.ndarray) -> tuple[int, int, int, int] | None:
+    """Largest integer box centred on the quad's centroid inside it, over a range of aspect ratios."""
+    c = quad.mean(0)
+    best = None
+    for aspect in np.geomspace(0.25, 4.0, 25):  # width / height
+        lo, hi = 0.0, float(np.ptp(quad, axis=0).max())
+        for _ in range(30):
+            h = 0.5 * (lo + hi)
+            half = np.array([0.5 * h * aspect, 0.5 * h])
+            box = c + half * np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]])
+            lo, hi = (h, hi) if _inside_convex(quad, box).all() else (lo, h)
+        w_px, h_px = int(np.floor(lo * aspect)), int(np.floor(lo))
+        if best is None or w_px * h_px > best[2] * best[3]:
+            best = (int(np.ceil(c[0] - 0.5 * lo * aspect)), int(np.ceil(c[1] - 0.5 * lo)), w_px, h_px)
+    return best if best and best[2] > 0 and best[3] > 0 else None
