@@ -81,7 +81,8 @@ def _write_summary(json_path, scenario, tracker, config, records, logger, interr
 
 
 STEP_COLUMNS = ("step", "time", "mode", "error_px", "tracker_error_px", "occlusion", "vx", "vy", "vz", "wx", "wy", "wz",
-                "gain", "saturated", "fault")
+                "gain", "saturated", "fault", "pose_x_mm", "pose_y_mm", "pose_z_mm", "pose_about_x_deg", "pose_about_y_deg",
+                "pose_about_z_deg", "condition_L")
 
 
 def steps_csv_path(json_path) -> Path:
@@ -99,4 +100,8 @@ def write_steps_csv(records, path: Path) -> None:
         for r in records:
             w.writerow([r.step, f"{r.time:.4f}", r.mode, f"{r.error_px:.4f}", f"{r.tracker_error_px:.4f}",
                         f"{r.occlusion:.4f}", *(f"{v:.6f}" for v in r.twist), f"{r.gain:.4f}", int(r.saturated),
-                        r.fault or ""])
+                        r.fault or "", *(f"{v:.4f}" for v in r.pose_error), _condition(r.singular_values)])
+
+
+def _condition(sv) -> str:
+    return f"{sv.max() / sv.min():.1f}" if len(sv) and sv.min() > 0 else ""

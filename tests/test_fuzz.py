@@ -93,7 +93,8 @@ def stubs(monkeypatch, tmp_path):
     monkeypatch.setattr(servo, "run_servo_bench", bench({"results": {}}))
     monkeypatch.setattr(natural, "run_natural_bench",
                         bench({"overall": {}, "visible_lt_40": {}, "timing": {}, "per_kind": {}}))
-    brief = dict.fromkeys(("converged", "steps_to_converge", "final_error_px", "max_error_px_during_occlusion",
+    brief = dict.fromkeys(("converged", "steps_to_converge", "final_error_px", "final_pose_error_mm",
+                           "final_pose_error_deg", "controlled_dofs", "max_error_px_during_occlusion",
                            "lost_steps", "predict_steps", "fault_steps", "steps_per_second"), 0)
     monkeypatch.setattr(runner, "run_episode", lambda *a, **k: (brief, []))
     monkeypatch.setattr(sequence, "write_sequence", lambda *a, **k: {"frames": 1, "peak_occlusion": 0.0})
@@ -139,6 +140,9 @@ def test_cli_bench(stubs, capsys, what, opts):
     "--scenario": NAMES, "--seed": INTS, "--steps": INTS, "--frames": INTS, "--mount": NAMES, "--camera": NAMES,
     "--target": NAMES, "--wall": NAMES, "--people": NAMES, "--width": INTS, "--height": INTS,
     "--fovy": st.sampled_from(["45", "0", "nan", "179", "-3"]), "--tracker": NAMES, "--target-width": INTS,
+    "--warp": st.sampled_from(["homography", "similarity", "affine", ""]), "--controller": NAMES,
+    "--start-offset": st.sampled_from(["0,0,0,0,0,0", "0.03,-0.02,0.06,10,8,-8", "1,2", "0,0,0,0,80,0", "a,b,c,d,e,f",
+                                       "0,0,0,0,0,nan"]),
     "--overwrite": st.just(None)}))
 def test_cli_run_and_scene(stubs, capsys, command, opts):
     argv = [command] + (["--out", str(stubs / "scene"), "--overwrite"] if command == "scene" else

@@ -101,8 +101,8 @@ class IBVSController:
     """Point-feature IBVS to fixed desired features s* (pixels), given intrinsics K."""
 
     def __init__(self, K: np.ndarray, desired_px: np.ndarray, desired_depth: float, config: IBVSConfig = IBVSConfig(),
-                 dofs: tuple[str, ...] = DOF_NAMES):
-        """`dofs`: the DOFs the features observe, used when config.dofs is None."""
+                 dofs: tuple[str, ...] = SIMILARITY_DOFS):
+        """`dofs`: the DOFs the features observe (dofs_for: the loop passes them), used when config.dofs is None."""
         try:
             self.K = np.asarray(K, float)
             self.desired_px = np.asarray(desired_px, float).reshape(-1, 2)

@@ -18,7 +18,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from hvs_sim.control.ibvs import DOF_NAMES, ControlOutput, IBVSConfig, IBVSController, bound_twist
+from hvs_sim.control.ibvs import SIMILARITY_DOFS, ControlOutput, IBVSConfig, IBVSController, bound_twist
 from hvs_sim.errors import InputError
 
 
@@ -26,7 +26,7 @@ class PBVSController:
     """PBVS to the pose that shows the desired corners s* (pixels) at depth Z*, given intrinsics K."""
 
     def __init__(self, K: np.ndarray, desired_px: np.ndarray, desired_depth: float, config: IBVSConfig | None = None,
-                 dofs: tuple[str, ...] = DOF_NAMES):
+                 dofs: tuple[str, ...] = SIMILARITY_DOFS):
         config = config or IBVSConfig()
         # the same checks and normalisation as IBVS (and its image error for the gain schedule)
         self.image = IBVSController(K, desired_px, desired_depth, config, dofs)

@@ -23,7 +23,7 @@ def track_triads(results: dict, config, out: Path) -> list[Path]:
         keys = [k for k in results if k[0] == scen]
         if not keys:
             continue
-        fig, ax = plt.subplots(1, 3, figsize=(16, 4.6))
+        fig, ax = plt.subplots(1, 4, figsize=(21, 4.6))
         first = keys[0]
         for m in config.methods:
             err = np.concatenate([results[k][m]["error"][1:] for k in keys])
@@ -69,11 +69,12 @@ def track_triads(results: dict, config, out: Path) -> list[Path]:
 
 
 def servo_figure(episodes: dict, out: Path, title: str) -> Path:
-    """Error norm over time, image-plane corner trajectories and camera velocity, one example per tracker."""
+    """Error norm over time, image-plane corner trajectories, the camera's pose error (truth, with the
+    largest condition number of L in the legend) and camera velocity, one example per method."""
     trackers = list(episodes)
     # the velocity panel shows one tracker: the hybrid when it ran, else the first that is not the oracle
     shown = "hybrid" if "hybrid" in trackers else next((t for t in trackers if t != "ground_truth"), trackers[0])
-    fig, ax = plt.subplots(1, 3, figsize=(16, 4.6))
+    fig, ax = plt.subplots(1, 4, figsize=(21, 4.6))
     for t in trackers:
         rec = episodes[t]
         c = COLORS.get(t)
@@ -82,10 +83,16 @@ def servo_figure(episodes: dict, out: Path, title: str) -> Path:
         corners = np.array([r["gt_features"] for r in rec])
         for j in range(4):
             ax[1].plot(corners[:, j, 0], corners[:, j, 1], color=c, lw=1, label=t if j == 0 else None)
+        if rec and "pose_error" in rec[0]:
+            pe = np.array([r["pose_error"] for r in rec])
+            conds = [r["condition"] for r in rec if r.get("condition")]
+            cond = f", cond(L) ≤ {max(conds):.0f}" if conds else ""
+            ax[2].plot(time, np.maximum(np.linalg.norm(pe[:, :3], axis=1), 1e-3), color=c, label=f"{t} (mm{cond})")
+            ax[2].plot(time, np.maximum(np.linalg.norm(pe[:, 3:], axis=1), 1e-3), color=c, ls="--", label=f"{t} (°)")
         if t == shown:
             twist = np.array([r["twist"] for r in rec])
             for j, n in enumerate(("vx", "vy", "vz", "wx", "wy", "wz")):
-                ax[2].plot(time, twist[:, j], label=n)
+                ax[3].plot(time, twist[:, j], label=n)
             occ = np.array([r["occlusion"] for r in rec])
             ax[0].fill_between(time, 1e-3, np.where(occ > 0, 1e3, 1e-3), color="grey", alpha=0.2, step="mid",
                                label="target occluded")
@@ -103,10 +110,15 @@ def servo_figure(episodes: dict, out: Path, title: str) -> Path:
     ax[1].set_ylabel("v (px)")
     ax[1].set_title("true corner trajectories")
     ax[1].legend(fontsize=8)
+    ax[2].set_yscale("log")
     ax[2].set_xlabel("time (s)")
-    ax[2].set_ylabel("camera twist (m/s, rad/s)")
-    ax[2].set_title(f"camera velocity ({shown})")
-    ax[2].legend(fontsize=8, ncol=2)
+    ax[2].set_ylabel("camera pose error to the reference (mm solid, ° dashed)")
+    ax[2].set_title("pose error (simulator truth)")
+    ax[2].legend(fontsize=7)
+    ax[3].set_xlabel("time (s)")
+    ax[3].set_ylabel("camera twist (m/s, rad/s)")
+    ax[3].set_title(f"camera velocity ({shown})")
+    ax[3].legend(fontsize=8, ncol=2)
     fig.suptitle(title)
     fig.tight_layout()
     p = Path(out)

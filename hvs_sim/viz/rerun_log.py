@@ -9,7 +9,8 @@ Entity paths:
   world/occluder                    the people in front of it (boxes around their bodies)
   world/wall, world/arm/mesh_*      the picture board (box) and the arm's meshes (posed every step)
   run/config, run/summary           the run's set-up and, at the end, its summary (JSON text)
-  plots/error_px, plots/tracker_error_px, plots/log10_error_px, plots/occlusion, plots/mode
+  plots/error_px, plots/tracker_error_px, plots/log10_error_px, plots/occlusion, plots/mode,
+  plots/pose_error_mm, plots/pose_error_deg (the camera's pose error, truth), plots/condition_L, plots/rank_L
   plots/twist/{vx,vy,vz,wx,wy,wz}, plots/joint_velocity/j{1..6}
 Library code takes a RecordingStream; logging never raises into the loop.
 2-D overlays are shifted by half a pixel: hvs_sim puts pixel centres at integers (OpenCV), rerun's
@@ -51,7 +52,11 @@ def blueprint() -> rrb.Blueprint:
                 rrb.Tabs(rrb.TimeSeriesView(name="log10 pixel error", origin="plots",
                                             contents=["plots/log10_error_px", "plots/log10_tracker_error_px"]),
                          rrb.TimeSeriesView(name="pixel error", origin="plots",
-                                            contents=["plots/error_px", "plots/tracker_error_px"])),
+                                            contents=["plots/error_px", "plots/tracker_error_px"]),
+                         rrb.TimeSeriesView(name="pose error", origin="plots",
+                                            contents=["plots/pose_error_mm", "plots/pose_error_deg"]),
+                         rrb.TimeSeriesView(name="cond(L)", origin="plots",
+                                            contents=["plots/condition_L", "plots/rank_L"])),
                 rrb.TimeSeriesView(name="occlusion and mode", origin="plots", contents=["plots/occlusion", "plots/mode"]),
                 rrb.Tabs(rrb.TimeSeriesView(name="camera twist", origin="plots/twist"),
                          rrb.TimeSeriesView(name="joint velocities", origin="plots/joint_velocity")),
@@ -137,6 +142,12 @@ class RerunLogger:
                 static=True)
         rec.log("plots/log10_tracker_error_px", rr.SeriesLines(names="log10 tracker error (px)", colors=[50, 160, 50]),
                 static=True)
+        rec.log("plots/pose_error_mm", rr.SeriesLines(names="camera pose error (mm, truth)", colors=[30, 90, 200]),
+                static=True)
+        rec.log("plots/pose_error_deg", rr.SeriesLines(names="camera pose error (deg, truth)", colors=[200, 120, 30]),
+                static=True)
+        rec.log("plots/condition_L", rr.SeriesLines(names="condition number of L"), static=True)
+        rec.log("plots/rank_L", rr.SeriesLines(names="rank of L"), static=True)
 
     def log_step(self, r: StepRecord) -> None:
         self._guard(self._step, r)
@@ -169,6 +180,12 @@ class RerunLogger:
         if np.isfinite(r.tracker_error_px):
             rec.log("plots/tracker_error_px", rr.Scalars(r.tracker_error_px))
             rec.log("plots/log10_tracker_error_px", rr.Scalars(np.log10(max(r.tracker_error_px, 1e-3))))
+        rec.log("plots/pose_error_mm", rr.Scalars(float(np.linalg.norm(r.pose_error[:3]))))
+        rec.log("plots/pose_error_deg", rr.Scalars(float(np.linalg.norm(r.pose_error[3:]))))
+        sv = r.singular_values
+        if len(sv) and sv.min() > 0:
+            rec.log("plots/condition_L", rr.Scalars(float(sv.max() / sv.min())))
+            rec.log("plots/rank_L", rr.Scalars(int((sv > 1e-6 * sv.max()).sum())))
         rec.log("plots/occlusion", rr.Scalars(r.occlusion))
         rec.log("plots/mode", rr.Scalars(MODE_CODE.get(r.mode, 3)))
         for name, v in zip(TWIST, r.twist):
