@@ -170,13 +170,11 @@ def _scenario(params: dict, mount: str):
     from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 
     cam = CameraConfig(width=params["width"], height=params["height"], sensor=params["camera"])
-    extra = {}
-    if mount == "arm":
-        from hvs_sim.bench.servo import episode_offset
+    if mount == "arm":  # the start pose as the servo benchmark draws it (reachable, target in view)
+        from hvs_sim.bench.servo import episode_scenario
 
-        extra["start_offset"] = episode_offset(params["seed"])  # as the servo benchmark
-    return make_scenario(params["scenario"], mount=mount, seed=params["seed"], camera=cam, people=params["people"],
-                         **extra)
+        return episode_scenario(params["scenario"], params["seed"], camera=cam, people=params["people"])
+    return make_scenario(params["scenario"], mount=mount, seed=params["seed"], camera=cam, people=params["people"])
 
 
 def _track_task(params: dict) -> dict:

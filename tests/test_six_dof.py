@@ -215,3 +215,20 @@ def test_run_json_carries_the_pose_error(tmp_path, capsys):
     assert main(["run", "--start-offset", "1,2,3"]) == 2
     assert "six numbers" in capsys.readouterr().err
     assert main(["run", "--tracker", "ground_truth", "--warp", "homography"]) == 2
+
+
+def test_damped_pseudo_inverse_is_the_pseudo_inverse_at_zero_and_damps_the_weak_direction():
+    from hvs_sim.control.ibvs import damped_pinv, interaction_matrix
+
+    K = intrinsics(640, 480, 45)
+    desired = np.array([[260.0, 200], [380, 200], [380, 280], [260, 280]])
+    L = interaction_matrix(IBVSController(K, desired, 0.8).s_star, np.full(4, 0.8))
+    assert np.allclose(damped_pinv(L, 0.0), np.linalg.pinv(L))
+    U, sv, _ = np.linalg.svd(L, full_matrices=False)
+    mu = 0.005 * sv.max()
+    D = damped_pinv(L, mu)
+    weak, strong = U[:, -1], U[:, 0]  # image-space directions of the smallest and largest singular values
+    assert np.linalg.norm(D @ weak) < 0.5 * np.linalg.norm(np.linalg.pinv(L) @ weak)
+    assert np.allclose(D @ strong, np.linalg.pinv(L) @ strong, rtol=1e-3)
+    with pytest.raises(ConfigError, match="damping"):
+        IBVSConfig(damping=-0.1)

@@ -59,6 +59,10 @@ class IBVSConfig:
     predict_gain: float = 0.5  # multiplies λ while the tracker predicts (occlusion)
     max_linear: float = 0.15  # m/s, per-axis command bound (reported when hit)
     max_angular: float = 0.6  # rad/s
+    # damped pseudo-inverse (LᵀL + μ²I)⁻¹Lᵀ with μ = damping × σ_max(L); 0 = the plain L⁺ of the paper.
+    # Damps the directions L barely sees (pitch/yaw against lateral shift for a small target), whose
+    # velocity would otherwise be tracker noise divided by a small singular value
+    damping: float = 0.0
 
     def __post_init__(self):
         check_number("gain", self.gain, 0, lo_open=True)
@@ -74,6 +78,7 @@ class IBVSConfig:
         check_number("predict_gain", self.predict_gain, 0, 1)
         check_number("max_linear (m/s)", self.max_linear, 0, lo_open=True)
         check_number("max_angular (rad/s)", self.max_angular, 0, lo_open=True)
+        check_number("damping", self.damping, 0, 1)
 
 
 @dataclass
@@ -167,9 +172,17 @@ class IBVSController:
         Lc = L[:, self.cols]
         sv = np.linalg.svd(Lc, compute_uv=False)
         if mode != "lost":
-            twist[self.cols] = -lam * (np.linalg.pinv(Lc) @ e)
+            twist[self.cols] = -lam * (damped_pinv(Lc, self.config.damping * sv.max()) @ e)
         twist, saturated = bound_twist(twist, self.config.max_linear, self.config.max_angular)
         return ControlOutput(twist, e, err_px, lam, saturated, sv)
+
+
+def damped_pinv(L: np.ndarray, mu: float) -> np.ndarray:
+    """(LᵀL + μ²I)⁻¹Lᵀ through the SVD (L⁺ when μ = 0)."""
+    if mu <= 0:
+        return np.linalg.pinv(L)
+    U, sv, Vt = np.linalg.svd(L, full_matrices=False)
+    return (Vt.T * (sv / (sv ** 2 + mu ** 2))) @ U.T
 
 
 def bound_twist(twist: np.ndarray, max_linear: float, max_angular: float) -> tuple[np.ndarray, bool]:
