@@ -214,8 +214,8 @@ def _check_bench_options(args) -> None:
                             ("--mounts", args.mounts)):
             if value:
                 raise ConfigError(f"{flag} applies to `bench track` only (the servo benchmark's camera is on the arm)")
-    elif args.episodes is not None:
-        raise ConfigError("--episodes applies to `bench servo` only")
+    elif args.episodes is not None or args.damping is not None:
+        raise ConfigError(f"{'--episodes' if args.episodes is not None else '--damping'} applies to `bench servo` only")
     elif args.imagery == "natural":
         for flag, value in (("--mounts", args.mounts), ("--people", args.people)):
             if value:
@@ -317,6 +317,8 @@ def _cmd_bench_sim(args) -> int:
         if args.smoke:
             print(SMOKE_NOTE)
             given = {"trackers": ("ground_truth", "hybrid"), "scenarios": ("walk_by",), "episodes": 1, **given}
+        if args.damping is not None:
+            given["damping"] = args.damping
         cfg = ServoBenchConfig(workers=args.workers, camera=args.camera, people=args.people,
                                steps=30 if args.smoke else None, **given)
         summary = run_servo_bench(cfg, Path(args.out))
@@ -465,6 +467,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--methods", nargs="+", default=None, metavar="NAME",
                    help=f"trackers to compare: {', '.join(TRACKER_NAMES)}; servo also ground_truth (the hybrid_* are "
                         "ablations, see hvs_sim/tracking/registry.py; default: the benchmark's set)")
+    p.add_argument("--damping", type=float, default=None,
+                   help="servo only: damped pseudo-inverse, μ = damping × σ_max(L) (IBVSConfig.damping; default 0)")
     p.add_argument("--imagery", default="sim", choices=("sim", "natural"),
                    help="track only: sim = rendered scenes (default); natural = photos and procedural pictures moved "
                         "like a hand-held phone, with a drawn person (hvs_sim/bench/natural.py)")

@@ -46,6 +46,7 @@ class ServoBenchConfig:
     camera: str = REALISTIC_PRESET  # camera model of every episode (hvs_sim.camera_model.SENSOR_PRESETS)
     people: str = "textured"  # how the people look ("plain": the flat figures of the earlier benchmarks)
     seeds: tuple[int, ...] | None = None  # explicit episode seeds (then `episodes` and `seed0` are not used)
+    damping: float = 0.0  # IBVSConfig.damping of every episode (0: the plain pseudo-inverse)
 
     def __post_init__(self):
         from hvs_sim.camera_model import sensor_preset
@@ -75,6 +76,7 @@ class ServoBenchConfig:
             for s in self.seeds:
                 check_number("seed", s, 0, integer=True)
         sensor_preset(self.camera)
+        check_number("damping", self.damping, 0, 1)
 
     @property
     def episode_seeds(self) -> list[int]:
@@ -129,15 +131,17 @@ def episode_scenario(scen_name: str, seed: int, **overrides):
 def _episode(args):
     import torch
 
+    from hvs_sim.control.ibvs import IBVSConfig
     from hvs_sim.runner import run_episode
     from hvs_sim.scene.scenarios import CameraConfig
 
-    scen_name, method, seed, steps, extra, keep, camera, people = args
+    scen_name, method, seed, steps, extra, keep, camera, people, damping = args
     torch.set_num_threads(1 if os.environ.get("HVS_WORKERS", "1") != "1" else 2)
     tracker, warp, controller = parse_method(method)
     scen = episode_scenario(scen_name, seed, camera=CameraConfig(sensor=camera), people=people)
     n = steps if steps else scen.n_frames + extra
-    summary, records = run_episode(scen, tracker, LoopConfig(steps=n, keep_frames=False, controller=controller),
+    loop_config = LoopConfig(steps=n, keep_frames=False, controller=controller, ibvs=IBVSConfig(damping=damping))
+    summary, records = run_episode(scen, tracker, loop_config,
                                    progress=False, tracker_settings={"warp": warp} if warp else None)
     summary["method"] = method
     summary["start_offset"] = list(scen.start_offset)
@@ -156,7 +160,7 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     seeds = config.episode_seeds
-    jobs = [(s, t, seed, config.steps, config.extra_steps, seed == seeds[0], config.camera, config.people)
+    jobs = [(s, t, seed, config.steps, config.extra_steps, seed == seeds[0], config.camera, config.people, config.damping)
             for s in config.scenarios for t in config.trackers for seed in seeds]
     os.environ["HVS_WORKERS"] = str(config.workers)
     episodes, traces = {}, {}
