@@ -468,7 +468,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"trackers to compare: {', '.join(TRACKER_NAMES)}; servo also ground_truth (the hybrid_* are "
                         "ablations, see hvs_sim/tracking/registry.py; default: the benchmark's set)")
     p.add_argument("--damping", type=float, default=None,
-                   help="servo only: damped pseudo-inverse, μ = damping × σ_max(L) (IBVSConfig.damping; default 0)")
+                   help="servo only: damped pseudo-inverse, μ = damping × σ_max(L) (IBVSConfig.damping; default: 0.005 for "
+                        "tracked features on six DOF, else 0)")
     p.add_argument("--imagery", default="sim", choices=("sim", "natural"),
                    help="track only: sim = rendered scenes (default); natural = photos and procedural pictures moved "
                         "like a hand-held phone, with a drawn person (hvs_sim/bench/natural.py)")

@@ -6,6 +6,7 @@ for that step (zero twist) and is written into the record; the loop goes on.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -15,7 +16,7 @@ import numpy as np
 
 from hvs_sim.camera_model import undistort_points
 from hvs_sim.control.arm import ArmLimits, camera_twist_to_world, twist_to_joint_velocities
-from hvs_sim.control.ibvs import CONTROLLERS, DOF_NAMES, IBVSConfig, IBVSController, dofs_for
+from hvs_sim.control.ibvs import CONTROLLERS, DOF_NAMES, TRACKED_6DOF_DAMPING, IBVSConfig, IBVSController, dofs_for
 from hvs_sim.control.pbvs import PBVSController
 from hvs_sim.errors import ConfigError, StateError, choice_error
 from hvs_sim.render.camera import CameraPose
@@ -84,6 +85,7 @@ class StepRecord:
     singular_values: np.ndarray = field(default_factory=lambda: np.zeros(0))  # of the controlled columns of L
     dofs: tuple[str, ...] = DOF_NAMES  # the DOFs the controller commands
     target_in_view: bool = True  # all four true target corners inside the image
+    damping: float = 0.0  # the IBVS damping the loop used (IBVSConfig.damping, resolved)
     controlled_pose_error: tuple[float, float] = (0.0, 0.0)  # (mm, deg) of pose_error in those DOFs
     people: list = field(default_factory=list)  # (feet position, orientation) of each person
     arm: tuple | None = None  # (positions (k, 3), orientations (k, 3, 3)) of the arm's meshes (Scene.arm_meshes)
@@ -140,6 +142,10 @@ class ServoLoop:
         # the DOFs the features observe: ground truth and a homography tracker give perspective corners
         self.warp = "homography" if self.tracker is None else getattr(self.tracker, "warp", "similarity")
         self.dofs = tuple(config.ibvs.dofs or dofs_for(self.warp))
+        damping = config.ibvs.damping
+        if damping is None:  # exact features need none; tracked ones on six DOF do (IBVSConfig.damping)
+            damping = TRACKED_6DOF_DAMPING if self.tracker is not None and len(self.dofs) == 6 else 0.0
+        self.ibvs_config = dataclasses.replace(config.ibvs, damping=damping)
 
 
     def _in_view(self, px: np.ndarray) -> bool:
@@ -178,7 +184,7 @@ class ServoLoop:
                 roi0 = roi_corners(roi)
                 desired = r.transfer(flag0, self.flag_desired, roi0)
                 law = IBVSController if cfg.controller == "ibvs" else PBVSController
-                controller = law(r.K, self._pinhole(desired), self.desired_depth, cfg.ibvs, self.dofs)
+                controller = law(r.K, self._pinhole(desired), self.desired_depth, self.ibvs_config, self.dofs)
             gt_features = r.transfer(flag0, gt.corners, roi0)
             fault, track = None, None
             t0 = time.perf_counter()
@@ -216,7 +222,7 @@ class ServoLoop:
                 tracker_error_px=float(np.linalg.norm(features - gt_features, axis=1).mean()) if fault is None else float("nan"),
                 occlusion=gt.occlusion, twist=twist, qdot=cmd.qdot, q=gt.joint_positions, camera=gt.camera, gain=gain,
                 saturated=sat or cmd.velocity_saturated, limit_blocked=cmd.limit_blocked, fault=fault, timings=timings,
-                pose_error=pose_err, singular_values=sv, dofs=self.dofs, target_in_view=self._in_view(gt.corners),
+                pose_error=pose_err, singular_values=sv, dofs=self.dofs, damping=self.ibvs_config.damping, target_in_view=self._in_view(gt.corners),
                 controlled_pose_error=self.controlled_pose_error(pose_err), people=scene.people_poses(), arm=scene.arm_poses())
             t0 = time.perf_counter()
             scene.advance(cmd.qdot)
@@ -252,6 +258,7 @@ def summarize_run(records: list[StepRecord], config: LoopConfig) -> dict:
     ranks = [int((r.singular_values > 1e-6 * r.singular_values.max()).sum()) for r in records if len(r.singular_values)]
     return {
         "controller": config.controller,
+        "damping": records[0].damping,
         "controlled_dofs": list(final.dofs),
         "pose_bound": {"mm": config.converge_mm, "deg": config.converge_deg,
                        "applies_to": list(final.dofs),

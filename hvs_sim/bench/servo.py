@@ -46,7 +46,7 @@ class ServoBenchConfig:
     camera: str = REALISTIC_PRESET  # camera model of every episode (hvs_sim.camera_model.SENSOR_PRESETS)
     people: str = "textured"  # how the people look ("plain": the flat figures of the earlier benchmarks)
     seeds: tuple[int, ...] | None = None  # explicit episode seeds (then `episodes` and `seed0` are not used)
-    damping: float = 0.0  # IBVSConfig.damping of every episode (0: the plain pseudo-inverse)
+    damping: float | None = None  # IBVSConfig.damping of every episode (None: the loop's default)
 
     def __post_init__(self):
         from hvs_sim.camera_model import sensor_preset
@@ -76,7 +76,8 @@ class ServoBenchConfig:
             for s in self.seeds:
                 check_number("seed", s, 0, integer=True)
         sensor_preset(self.camera)
-        check_number("damping", self.damping, 0, 1)
+        if self.damping is not None:
+            check_number("damping", self.damping, 0, 1)
 
     @property
     def episode_seeds(self) -> list[int]:
