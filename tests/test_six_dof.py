@@ -181,6 +181,8 @@ def test_four_dofs_from_a_tilted_start_do_not_count_as_converged():
 def test_start_offsets_are_checked():
     with pytest.raises(ConfigError, match="not fully in view"):
         ServoLoop(make_scenario("clear", mount="arm", start_offset=(0.1, 0, -0.2, 0, 0, math.radians(25))), "ground_truth")
+    with pytest.raises(ConfigError, match="cannot be reached"):  # the camera pulled back onto the arm's base
+        ServoLoop(make_scenario("clear", mount="arm", start_offset=(0, 0, -0.39, 0, 0, 0)), "ground_truth")
     with pytest.raises(ConfigError, match="too far"):
         make_scenario("clear", mount="arm", start_offset=(0, 0, 0, 0, math.radians(40), 0))
     with pytest.raises(ConfigError, match="6 finite numbers"):
