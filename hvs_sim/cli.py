@@ -431,8 +431,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "corners, and the controller then commands all six DOF")
     p.add_argument("--controller", default="ibvs", choices=("ibvs", "pbvs"), help="the servo law")
     p.add_argument("--start-offset", default=None, metavar="DX,DY,DZ,ROLL,PITCH,YAW",
-                   help="start pose relative to the reference pose, camera frame (metres, degrees); default: the "
-                        "scenario's (0.03,-0.02,0.06,6,0,0)")
+                   help="start pose relative to the reference pose, camera frame (metres, degrees; dz > 0 is "
+                        "towards the target); write --start-offset=-0.03,... when the first value is negative; "
+                        "default: the scenario's (0.03,-0.02,0.06,6,0,0)")
     p.add_argument("--json", default=None, help="write the run summary here")
     p.add_argument("--rrd", default=None, help="save a rerun recording here")
     p.add_argument("--spawn", action="store_true", help="open the rerun viewer")

@@ -18,7 +18,7 @@ from hvs_sim.camera_model import undistort_points
 from hvs_sim.control.arm import ArmLimits, camera_twist_to_world, twist_to_joint_velocities
 from hvs_sim.control.ibvs import CONTROLLERS, DOF_NAMES, TRACKED_6DOF_DAMPING, IBVSConfig, IBVSController, dofs_for
 from hvs_sim.control.pbvs import PBVSController
-from hvs_sim.errors import ConfigError, StateError, choice_error
+from hvs_sim.errors import ConfigError, HvsError, StateError, choice_error
 from hvs_sim.render.camera import CameraPose
 from hvs_sim.render.renderer import GroundTruth, Renderer
 from hvs_sim.scene.scenarios import Scenario
@@ -144,7 +144,8 @@ class ServoLoop:
         self.dofs = tuple(config.ibvs.dofs or dofs_for(self.warp))
         damping = config.ibvs.damping
         if damping is None:  # exact features need none; tracked ones on six DOF do (IBVSConfig.damping)
-            damping = TRACKED_6DOF_DAMPING if self.tracker is not None and len(self.dofs) == 6 else 0.0
+            tracked_6dof = self.tracker is not None and len(self.dofs) == 6 and config.controller == "ibvs"
+            damping = TRACKED_6DOF_DAMPING if tracked_6dof else 0.0  # PBVS inverts no L: nothing to damp
         self.ibvs_config = dataclasses.replace(config.ibvs, damping=damping)
 
 
@@ -206,8 +207,13 @@ class ServoLoop:
                 fault, features, mode = f"{type(exc).__name__}: {exc}", gt_features * np.nan, "fault"
             timings["track"] = 1e3 * (time.perf_counter() - t0)
             t0 = time.perf_counter()
+            ctrl = None
             if fault is None:
-                ctrl = controller.compute(self._pinhole(features), np.full(4, gt.target_depth), mode)
+                try:  # PBVS cannot take a pose from a degenerate quad: like a tracker fault, stop the arm and record it
+                    ctrl = controller.compute(self._pinhole(features), np.full(4, gt.target_depth), mode)
+                except HvsError as exc:
+                    fault, mode = f"{type(exc).__name__}: {exc}", "fault"
+            if ctrl is not None:
                 twist, gain, sat, sv = ctrl.twist, ctrl.gain, ctrl.saturated, ctrl.singular_values
             else:
                 twist, gain, sat, sv = np.zeros(6), 0.0, False, np.zeros(0)

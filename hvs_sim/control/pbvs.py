@@ -33,12 +33,17 @@ class PBVSController:
         self.config, self.K, self.desired_px = config, self.image.K, self.image.desired_px
         self.dofs, self.cols = self.image.dofs, self.image.cols
         s_star = self.image.s_star
+        if len(s_star) < 4:
+            raise InputError(f"PBVS needs at least 4 coplanar corners for the target's pose, got {len(s_star)}")
         self.model = np.column_stack([s_star * desired_depth, np.full(len(s_star), desired_depth)])
 
     def pose(self, features_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(R, t) of the target model in the current camera frame from the corners (pixels)."""
-        ok, rvec, tvec = cv2.solvePnP(self.model, np.asarray(features_px, np.float64).reshape(-1, 1, 2), self.K, None,
-                                      flags=cv2.SOLVEPNP_IPPE)
+        try:
+            ok, rvec, tvec = cv2.solvePnP(self.model, np.asarray(features_px, np.float64).reshape(-1, 1, 2), self.K, None,
+                                          flags=cv2.SOLVEPNP_IPPE)
+        except cv2.error:
+            ok, rvec, tvec = False, None, None
         if not ok or not np.all(np.isfinite(rvec)) or not np.all(np.isfinite(tvec)):
             raise InputError("PBVS: the target's pose could not be estimated from these corners")
         return cv2.Rodrigues(rvec)[0], tvec.reshape(3)

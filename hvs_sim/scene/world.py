@@ -101,7 +101,7 @@ class Scene:
         return REFERENCE_POSITION.copy(), REFERENCE_R_CV.copy()
 
     def start_pose(self) -> tuple[np.ndarray, np.ndarray]:
-        """Reference pose displaced by the scenario's start offset (dx, dy, dz, roll)."""
+        """Reference pose displaced by the scenario's start offset (dx, dy, dz, roll, pitch, yaw)."""
         return offset_pose(*self.reference_pose(), self.scenario.start_offset)
 
     def handheld_pose(self, t: float) -> tuple[np.ndarray, np.ndarray]:
@@ -332,8 +332,8 @@ class Scene:
                 except ConfigError:
                     continue
             if not found:
-                raise ConfigError(f"{first}; the start offset {tuple(round(v, 3) for v in self.scenario.start_offset)} "
-                                  "(m, rad) cannot be reached by the arm: give a smaller offset") from None
+                raise ConfigError(f"{first}; the start offset {self.scenario.start_offset_text} cannot be reached by "
+                                  "the arm: give a smaller offset") from None
             return min(found, key=lambda qs: float(np.abs(qs - home).sum()))
 
     def advance(self, joint_velocity: np.ndarray | None = None) -> None:
@@ -443,5 +443,7 @@ def _home_configuration(scene: Scene) -> np.ndarray:
                 found.append(scene.solve_ik(*scene.reference_pose(), q0=q0))
             except ConfigError:
                 continue
+        if not found:
+            raise ConfigError("the arm cannot reach the reference camera pose (no IK solution from any seed)")
         _HOME.append(max(found, key=lambda q: _limit_margin(scene, q)))
     return _HOME[0].copy()

@@ -12,6 +12,8 @@ from hvs_sim.tracking.occlusion import TAU_PIX, aligned_patch, occlusion_fractio
 from hvs_sim.tracking.warp import WARPS, project_similarity
 from hvs_sim.validate import check_number
 
+SIFT_HOMOGRAPHY_MIN = 8  # matches before a homography is fitted (4 fit one exactly, with nothing to check it)
+
 
 def _check_warp(warp: str) -> str:
     if warp not in WARPS:
@@ -65,7 +67,7 @@ class SiftTracker(_GreyTemplate):
             return Estimate(self.A, "lost", self.occlusion(grey, self.A), len(good) / max(len(self.pts), 1))
         src = self.pts[[m.queryIdx for m in good]]
         dst = np.array([kps[m.trainIdx].pt for m in good], np.float32)
-        if self.warp == "homography" and len(good) >= 4:
+        if self.warp == "homography" and len(good) >= SIFT_HOMOGRAPHY_MIN:
             M, inliers = cv2.findHomography(src, dst, cv2.RANSAC, self.ransac_px)
         else:
             M, inliers = cv2.estimateAffinePartial2D(src, dst, method=cv2.RANSAC, ransacReprojThreshold=self.ransac_px)

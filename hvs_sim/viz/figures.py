@@ -23,7 +23,7 @@ def track_triads(results: dict, config, out: Path) -> list[Path]:
         keys = [k for k in results if k[0] == scen]
         if not keys:
             continue
-        fig, ax = plt.subplots(1, 4, figsize=(21, 4.6))
+        fig, ax = plt.subplots(1, 3, figsize=(16, 4.6))
         first = keys[0]
         for m in config.methods:
             err = np.concatenate([results[k][m]["error"][1:] for k in keys])
