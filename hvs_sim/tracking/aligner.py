@@ -377,7 +377,10 @@ class Aligner:
         except cv2.error:
             return None
         A = W.astype(float) @ np.linalg.inv(T)
-        return self.to_work(A / A[2, 2]) if np.all(np.isfinite(A)) else None
+        if not np.all(np.isfinite(A)):
+            return None
+        w = float(A[2, :2] @ self.center0 + A[2, 2])  # scale so that w = 1 (> 0) at the template, not at the frame origin
+        return self.to_work(A / w) if abs(w) > 1e-12 else None
 
     def plausible_shape(self, A_work: np.ndarray) -> bool:
         """Whether the template's corners under A_work form a convex quadrilateral in front of the

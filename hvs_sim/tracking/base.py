@@ -14,7 +14,7 @@ import numpy as np
 
 from hvs_sim.errors import StateError
 from hvs_sim.tracking.frames import check_frame, check_roi, roi_center, roi_corners
-from hvs_sim.tracking.warp import apply, matrix_to_pose
+from hvs_sim.tracking.warp import apply, local_affine, matrix_to_pose
 
 
 class Mode(StrEnum):
@@ -91,7 +91,8 @@ class Tracker:
         frame = check_frame(frame, self._shape)
         t0 = time.perf_counter()
         est = self._update(frame)
-        ok = _finite(est.A) and est.mode in MODES and abs(np.linalg.det(est.A[:2, :2])) > 1e-6
+        # invertible where the template is (the local affine part: a homography's own 2×2 block can be singular)
+        ok = _finite(est.A) and est.mode in MODES and abs(np.linalg.det(local_affine(est.A, self.center0)[:2, :2])) > 1e-6
         if ok and est.mode != Mode.LOST:
             self.A = est.A
         mode = Mode(est.mode) if ok else Mode.LOST
