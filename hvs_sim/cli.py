@@ -426,10 +426,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"one of: {', '.join(loop_trackers)} (default {DEFAULT_TRACKER}; the hybrid_* names are "
                         "its ablations, see hvs_sim/tracking/registry.py)")
     p.add_argument("--steps", type=int, default=240, help="control steps at 30 Hz")
-    p.add_argument("--warp", default=None, choices=("similarity", "homography"),
+    from hvs_sim.control.ibvs import CONTROLLERS
+    from hvs_sim.tracking.warp import WARPS
+
+    p.add_argument("--warp", default=None, choices=WARPS,
                    help="the tracker's warp model (default: the tracker's, similarity); homography gives perspective "
                         "corners, and the controller then commands all six DOF")
-    p.add_argument("--controller", default="ibvs", choices=("ibvs", "pbvs"), help="the servo law")
+    p.add_argument("--controller", default="ibvs", choices=CONTROLLERS, help="the servo law")
     p.add_argument("--start-offset", default=None, metavar="DX,DY,DZ,ROLL,PITCH,YAW",
                    help="start pose relative to the reference pose, camera frame (metres, degrees; dz > 0 is "
                         "towards the target); write --start-offset=-0.03,... when the first value is negative; "

@@ -16,7 +16,16 @@ import numpy as np
 
 from hvs_sim.camera_model import undistort_points
 from hvs_sim.control.arm import ArmLimits, camera_twist_to_world, twist_to_joint_velocities
-from hvs_sim.control.ibvs import CONTROLLERS, DOF_NAMES, TRACKED_6DOF_DAMPING, IBVSConfig, IBVSController, dofs_for
+from hvs_sim.control.ibvs import (
+    CONTROLLERS,
+    DOF_NAMES,
+    TRACKED_6DOF_DAMPING,
+    IBVSConfig,
+    IBVSController,
+    condition_number,
+    dofs_for,
+    matrix_rank,
+)
 from hvs_sim.control.pbvs import PBVSController
 from hvs_sim.errors import ConfigError, HvsError, StateError, choice_error
 from hvs_sim.render.camera import CameraPose
@@ -90,14 +99,28 @@ class StepRecord:
     people: list = field(default_factory=list)  # (feet position, orientation) of each person
     arm: tuple | None = None  # (positions (k, 3), orientations (k, 3, 3)) of the arm's meshes (Scene.arm_meshes)
 
+    @property
+    def condition(self) -> float | None:
+        """Condition number of the controlled columns of L (None: no control this step, or rank-deficient)."""
+        return condition_number(self.singular_values)
+
+    @property
+    def rank(self) -> int | None:
+        return matrix_rank(self.singular_values)
+
+
+def corners_in_view(px: np.ndarray, camera, margin: float = 0.0) -> bool:
+    """Whether all points (pixels) are finite and at least `margin` inside a camera's image."""
+    hi = np.array([camera.width - 1, camera.height - 1]) - margin
+    return bool(np.all(np.isfinite(px)) and np.all((px >= margin) & (px <= hi)))
+
 
 def check_start_in_view(scene: Scene, renderer: Renderer) -> None:
     """ConfigError unless all four target corners are inside the image from the scenario's start pose."""
     start_pos, start_R = scene.start_pose()
     px = renderer.project(CameraPose(start_R, start_pos), renderer.target_corners_world())
-    cam, m = scene.scenario.camera, IN_VIEW_MARGIN_PX
-    inside = (px[:, 0] >= m) & (px[:, 0] <= cam.width - 1 - m) & (px[:, 1] >= m) & (px[:, 1] <= cam.height - 1 - m)
-    if not np.all(np.isfinite(px)) or not inside.all():
+    cam = scene.scenario.camera
+    if not corners_in_view(px, cam, IN_VIEW_MARGIN_PX):
         raise ConfigError(f"from the start offset {scene.scenario.start_offset_text} the target is not fully in view "
                           f"(its corners at {np.round(px, 1).tolist()} px in a {cam.width}×{cam.height} image): "
                           "give a smaller offset")
@@ -140,18 +163,13 @@ class ServoLoop:
         self.desired_depth = float(scenario.standoff)
         check_start_in_view(self.scene, self.renderer)
         # the DOFs the features observe: ground truth and a homography tracker give perspective corners
-        self.warp = "homography" if self.tracker is None else getattr(self.tracker, "warp", "similarity")
+        self.warp = "homography" if self.tracker is None else self.tracker.warp
         self.dofs = tuple(config.ibvs.dofs or dofs_for(self.warp))
         damping = config.ibvs.damping
         if damping is None:  # exact features need none; tracked ones on six DOF do (IBVSConfig.damping)
             tracked_6dof = self.tracker is not None and len(self.dofs) == 6 and config.controller == "ibvs"
             damping = TRACKED_6DOF_DAMPING if tracked_6dof else 0.0  # PBVS inverts no L: nothing to damp
         self.ibvs_config = dataclasses.replace(config.ibvs, damping=damping)
-
-
-    def _in_view(self, px: np.ndarray) -> bool:
-        cam = self.scenario.camera
-        return bool(np.all(np.isfinite(px)) and np.all((px >= 0) & (px <= [cam.width - 1, cam.height - 1])))
 
     def controlled_pose_error(self, pose_error: np.ndarray) -> tuple[float, float]:
         """(mm, deg) of the pose error in the DOFs this loop controls."""
@@ -228,8 +246,10 @@ class ServoLoop:
                 tracker_error_px=float(np.linalg.norm(features - gt_features, axis=1).mean()) if fault is None else float("nan"),
                 occlusion=gt.occlusion, twist=twist, qdot=cmd.qdot, q=gt.joint_positions, camera=gt.camera, gain=gain,
                 saturated=sat or cmd.velocity_saturated, limit_blocked=cmd.limit_blocked, fault=fault, timings=timings,
-                pose_error=pose_err, singular_values=sv, dofs=self.dofs, damping=self.ibvs_config.damping, target_in_view=self._in_view(gt.corners),
-                controlled_pose_error=self.controlled_pose_error(pose_err), people=scene.people_poses(), arm=scene.arm_poses())
+                pose_error=pose_err, singular_values=sv, dofs=self.dofs, damping=self.ibvs_config.damping,
+                target_in_view=corners_in_view(gt.corners, self.scenario.camera),
+                controlled_pose_error=self.controlled_pose_error(pose_err), people=scene.people_poses(),
+                arm=scene.arm_poses())
             t0 = time.perf_counter()
             scene.advance(cmd.qdot)
             timings["physics"] = 1e3 * (time.perf_counter() - t0)
@@ -259,9 +279,8 @@ def summarize_run(records: list[StepRecord], config: LoopConfig) -> dict:
                   "mean_ms": float(np.mean([r.timings.get(k, 0.0) for r in records]))} for k in stages}
     step_ms = np.array([sum(r.timings.values()) for r in records])
     final = records[-1]
-    conds = [float(np.max(r.singular_values) / np.min(r.singular_values)) for r in records
-             if len(r.singular_values) and np.min(r.singular_values) > 0]
-    ranks = [int((r.singular_values > 1e-6 * r.singular_values.max()).sum()) for r in records if len(r.singular_values)]
+    conds = [r.condition for r in records if r.condition is not None]
+    ranks = [r.rank for r in records if r.rank is not None]
     return {
         "controller": config.controller,
         "damping": records[0].damping,
@@ -278,8 +297,8 @@ def summarize_run(records: list[StepRecord], config: LoopConfig) -> dict:
         "final_controlled_pose_error_deg": float(final.controlled_pose_error[1]),
         "camera_path_m": float(sum(np.linalg.norm(b.camera.t - a.camera.t) for a, b in pairwise(records))),
         "target_out_of_view_steps": int(sum(not r.target_in_view for r in records)),
-        "max_condition_number": float(max(conds)) if conds else None,
-        "min_rank": int(min(ranks)) if ranks else None,
+        "max_condition_number": max(conds) if conds else None,
+        "min_rank": min(ranks) if ranks else None,
         "converged": steps_to_converge is not None,
         "steps_to_converge": steps_to_converge,
         "seconds_to_converge": None if steps_to_converge is None else float(records[steps_to_converge].time),

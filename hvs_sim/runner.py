@@ -100,8 +100,5 @@ def write_steps_csv(records, path: Path) -> None:
         for r in records:
             w.writerow([r.step, f"{r.time:.4f}", r.mode, f"{r.error_px:.4f}", f"{r.tracker_error_px:.4f}",
                         f"{r.occlusion:.4f}", *(f"{v:.6f}" for v in r.twist), f"{r.gain:.4f}", int(r.saturated),
-                        r.fault or "", *(f"{v:.4f}" for v in r.pose_error), _condition(r.singular_values)])
-
-
-def _condition(sv) -> str:
-    return f"{sv.max() / sv.min():.1f}" if len(sv) and sv.min() > 0 else ""
+                        r.fault or "", *(f"{v:.4f}" for v in r.pose_error),
+                        "" if r.condition is None else f"{r.condition:.1f}"])

@@ -9,6 +9,7 @@ from which the target is not fully in view is drawn again (seeded)."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 from dataclasses import dataclass
@@ -54,13 +55,8 @@ class ServoBenchConfig:
         from hvs_sim.camera_model import sensor_preset
         from hvs_sim.loop import LOOP_TRACKERS
         from hvs_sim.scene.scenarios import PEOPLE_STYLES, SCENARIO_NAMES
-        from hvs_sim.tracking import TRACKERS
+        from hvs_sim.tracking import check_tracker
 
-        for m in self.trackers:
-            tracker, warp, _ = parse_method(m)
-            if warp == "homography" and TRACKERS.get(tracker) and TRACKERS[tracker].config.get("residual"):
-                raise ConfigError(f"servo method {m!r}: {tracker} uses the residual regressor, which cannot refine a "
-                                  "homography; use hybrid:homography or deep_lk:homography")
         for what, values, accepted in (("tracker", [parse_method(m)[0] for m in self.trackers], LOOP_TRACKERS),
                                        ("scenario", self.scenarios, SCENARIO_NAMES),
                                        ("people style", (self.people,), PEOPLE_STYLES)):
@@ -69,6 +65,13 @@ class ServoBenchConfig:
             for v in values:
                 if v not in accepted:
                     raise choice_error(what, v, accepted)
+        for m in self.trackers:  # e.g. a residual tracker with a homography: refused here, not in a worker
+            tracker, warp, _ = parse_method(m)
+            if warp:
+                try:
+                    check_tracker(tracker, warp=warp)
+                except ConfigError as exc:
+                    raise ConfigError(f"servo method {m!r}: {exc}") from None
         check_number("episodes", self.episodes, 1, integer=True)
         check_number("seed0", self.seed0, 0, integer=True)
         check_number("extra_steps", self.extra_steps, 0, integer=True)
@@ -130,10 +133,9 @@ def episode_scenario(scen_name: str, seed: int, **overrides):
     from hvs_sim.scene.scenarios import make_scenario
 
     last = None
+    base = make_scenario(scen_name, mount="arm", seed=seed, **overrides)
     for draw in range(MAX_DRAWS):
-        scen = make_scenario(scen_name, mount="arm", seed=seed, **overrides)
-        scen = make_scenario(scen_name, mount="arm", seed=seed, start_offset=episode_offset(seed, scen.standoff, draw),
-                             **overrides)
+        scen = dataclasses.replace(base, start_offset=episode_offset(seed, base.standoff, draw))
         try:
             check_start_pose(scen)
             return scen
@@ -163,8 +165,7 @@ def _episode(args):
     if keep:
         trace = [{"time": r.time, "error_px": r.error_px, "gt_features": r.gt_features.tolist(), "desired": r.desired.tolist(),
                   "twist": r.twist.tolist(), "occlusion": r.occlusion, "pose_error": r.pose_error.tolist(),
-                  "condition": float(r.singular_values.max() / r.singular_values.min())
-                  if len(r.singular_values) and r.singular_values.min() > 0 else None} for r in records]
+                  "condition": r.condition} for r in records]
     return (scen_name, method, seed), summary, trace
 
 

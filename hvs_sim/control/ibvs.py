@@ -28,11 +28,23 @@ CONTROLLERS = ("ibvs", "pbvs")
 TRACKED_6DOF_DAMPING = 0.005
 
 
+INTERACTION_AT = ("current", "desired", "mean")
+DEPTH_SOURCES = ("scale", "true")
+
+
 def dofs_for(warp: str) -> tuple[str, ...]:
     """The DOFs a tracker's corners observe: all six for perspective corners, four for a similarity."""
     return DOF_NAMES if warp == "homography" else SIMILARITY_DOFS
-INTERACTION_AT = ("current", "desired", "mean")
-DEPTH_SOURCES = ("scale", "true")
+
+
+def matrix_rank(sv: np.ndarray) -> int | None:
+    """Rank from singular values (RANK_TOL relative to the largest); None when there are none."""
+    return int((sv > RANK_TOL * sv.max()).sum()) if len(sv) and sv.max() > 0 else (0 if len(sv) else None)
+
+
+def condition_number(sv: np.ndarray) -> float | None:
+    """σ_max / σ_min; None when there are no singular values or the smallest is zero (rank-deficient)."""
+    return float(sv.max() / sv.min()) if len(sv) and sv.min() > 0 else None
 
 
 MIN_DESIRED_SPREAD_PX = 1.0  # desired points closer together than this make L singular
@@ -97,14 +109,13 @@ class ControlOutput:
 
     @property
     def rank(self) -> int:
-        sv = self.singular_values
-        return int((sv > RANK_TOL * sv.max()).sum()) if len(sv) and sv.max() > 0 else 0
+        return matrix_rank(self.singular_values) or 0
 
     @property
     def condition(self) -> float:
         """Condition number of the controlled columns of L (inf when rank-deficient)."""
-        sv = self.singular_values
-        return float(sv.max() / sv.min()) if len(sv) and sv.min() > 0 else float("inf")
+        c = condition_number(self.singular_values)
+        return float("inf") if c is None else c
 
 
 class IBVSController:

@@ -25,10 +25,9 @@ def _settings(name: str, cls, config: dict) -> dict:
     return config
 
 
-def make_tracker(name: str, **config) -> Tracker:
-    """A fresh tracker by name (registry.TRACKERS); keyword arguments override its settings (the
-    method's config dataclass fields). Unknown names and settings raise a ConfigError listing the
-    accepted ones."""
+def _builder(name: str, config: dict):
+    """The checked configuration of tracker `name` with `config` overriding its settings, as a function
+    that builds the tracker (the checks are cheap; building loads weights)."""
     spec: TrackerSpec | None = TRACKERS.get(name)
     if spec is None:
         raise choice_error("tracker", name, TRACKER_NAMES)
@@ -36,8 +35,9 @@ def make_tracker(name: str, **config) -> Tracker:
     if spec.base == "deep_lk":
         from hvs_sim.tracking.deep_lk import DeepLKConfig, DeepLKTracker
 
-        tracker = DeepLKTracker(DeepLKConfig(**_settings(name, DeepLKConfig, config)))
-    elif spec.base == "hybrid":
+        cfg = DeepLKConfig(**_settings(name, DeepLKConfig, config))
+        return lambda: DeepLKTracker(cfg)
+    if spec.base == "hybrid":
         from hvs_sim.tracking.aligner import DeepLKConfig
         from hvs_sim.tracking.hybrid import HybridConfig, HybridTracker
 
@@ -49,18 +49,31 @@ def make_tracker(name: str, **config) -> Tracker:
         base_deep = HybridConfig.__dataclass_fields__["deep"].default_factory()
         deep = DeepLKConfig(**{**{f.name: getattr(base_deep, f.name) for f in fields(DeepLKConfig)},
                                **{k: v for k, v in config.items() if k in deep_keys}})
-        tracker = HybridTracker(HybridConfig(deep=deep, **{k: v for k, v in config.items() if k in hybrid_keys}))
-    else:
-        from hvs_sim.tracking.baselines import EccTracker, SiftTracker
+        cfg = HybridConfig(deep=deep, **{k: v for k, v in config.items() if k in hybrid_keys})
+        return lambda: HybridTracker(cfg)
+    from hvs_sim.tracking.baselines import EccTracker, SiftTracker
 
-        cls = {"sift": SiftTracker, "ecc": EccTracker}[spec.base]
-        try:
-            tracker = cls(**config)
-        except TypeError:
-            import inspect
+    cls = {"sift": SiftTracker, "ecc": EccTracker}[spec.base]
+    try:
+        tracker = cls(**config)  # cheap: the constructor is the check
+    except TypeError:
+        import inspect
 
-            accepted = set(inspect.signature(cls).parameters)
-            raise _unknown_settings(name, set(config) - accepted, accepted) from None
+        accepted = set(inspect.signature(cls).parameters)
+        raise _unknown_settings(name, set(config) - accepted, accepted) from None
+    return lambda: tracker
+
+
+def check_tracker(name: str, **config) -> None:
+    """Raise the ConfigError `make_tracker(name, **config)` would, without building the tracker."""
+    _builder(name, config)
+
+
+def make_tracker(name: str, **config) -> Tracker:
+    """A fresh tracker by name (registry.TRACKERS); keyword arguments override its settings (the
+    method's config dataclass fields). Unknown names and settings raise a ConfigError listing the
+    accepted ones."""
+    tracker = _builder(name, config)()
     tracker.name = name
     return tracker
 
@@ -74,5 +87,6 @@ __all__ = [
     "Mode",
     "Track",
     "Tracker",
+    "check_tracker",
     "make_tracker",
 ]

@@ -20,14 +20,14 @@ import cv2
 import numpy as np
 import torch
 
-from hvs_sim.errors import ConfigError, choice_error
+from hvs_sim.errors import ConfigError
 from hvs_sim.tracking.feature_lk import HUBER_K, MAD_TO_SIGMA, AlignResult, FeatureICLK, LKConfig
 from hvs_sim.tracking.frames import roi_center, to_grey
 from hvs_sim.tracking.global_match import GlobalMatcher, Match
 from hvs_sim.tracking.nets.vgg import vgg16_pool2
 from hvs_sim.tracking.occlusion import TAU_PIX, aligned_patch, exposure_gain, occlusion_fraction
 from hvs_sim.tracking.trackability import MIN_TRACKABILITY
-from hvs_sim.tracking.warp import WARPS, apply, matrix_to_pose, pose_to_matrix, translate
+from hvs_sim.tracking.warp import apply, check_warp, is_affine, matrix_to_pose, pose_to_matrix, translate, warp_image
 from hvs_sim.validate import check_number
 
 MIN_CROP = 16  # work px: a crop smaller than this on a side means the target is (nearly) off the frame
@@ -90,8 +90,7 @@ class DeepLKConfig:
     refine_intensity: bool = True
 
     def __post_init__(self):
-        if self.warp not in WARPS:
-            raise choice_error("warp", self.warp, WARPS)
+        check_warp(self.warp)
         if self.residual and self.warp != "similarity":
             raise ConfigError("the residual regressor predicts a similarity correction; it cannot refine a "
                               f"{self.warp} warp: use residual=False with warp={self.warp!r}")
@@ -370,7 +369,7 @@ class Aligner:
         mask = None
         if seen.mean() < ECC_MASK_BELOW:  # ECC's mask is on the frame: the seen template pixels, warped there
             h, w = self.full_grey.shape
-            mask = cv2.warpPerspective(seen.astype(np.uint8), A_full @ T, (w, h), flags=cv2.INTER_NEAREST)
+            mask = warp_image(seen.astype(np.uint8), A_full @ T, (w, h), flags=cv2.INTER_NEAREST)
         try:
             _, W = cv2.findTransformECC(self.template_full, self.full_grey.astype(np.float32), W,
                                         cv2.MOTION_HOMOGRAPHY, ECC_CRITERIA, mask, ECC_GAUSS)
@@ -385,11 +384,11 @@ class Aligner:
     def plausible_shape(self, A_work: np.ndarray) -> bool:
         """Whether the template's corners under A_work form a convex quadrilateral in front of the
         camera (always true for a similarity; a homography pulled by an occluder can fold)."""
-        w = apply(A_work, self.t_corners) if A_work[2, :2].any() else None
-        if w is None:
+        if is_affine(A_work):
             return True
-        if np.any(self.t_corners @ A_work[2, :2] + A_work[2, 2] <= 0):
+        if np.any(self.t_corners @ A_work[2, :2] + A_work[2, 2] <= 0):  # a corner behind the camera
             return False
-        edges = np.roll(w, -1, axis=0) - w
+        quad = apply(A_work, self.t_corners)
+        edges = np.roll(quad, -1, axis=0) - quad
         cross = edges[:, 0] * np.roll(edges, -1, axis=0)[:, 1] - edges[:, 1] * np.roll(edges, -1, axis=0)[:, 0]
         return bool(np.all(cross > 0) or np.all(cross < 0))

@@ -24,7 +24,7 @@ import cv2
 import numpy as np
 
 from hvs_sim.errors import ConfigError
-from hvs_sim.tracking.warp import apply, is_affine
+from hvs_sim.tracking.warp import apply, is_affine, warp_image
 
 
 @dataclass(frozen=True)
@@ -267,10 +267,7 @@ class KeyframeAnchor:
         ref, start = k.corners[inside], start[inside]
         if len(ref) < 4:
             return none
-        if is_affine(P):
-            warped = cv2.warpAffine(k.image, P[:2], (w, h), flags=cv2.INTER_LINEAR)
-        else:
-            warped = cv2.warpPerspective(k.image, P, (w, h), flags=cv2.INTER_LINEAR)
+        warped = warp_image(k.image, P, (w, h), flags=cv2.INTER_LINEAR)
         nxt, ok = _lk_checked(warped, grey, start, c)
         if not ok.any():
             return none

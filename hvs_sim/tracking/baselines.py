@@ -5,20 +5,14 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from hvs_sim.errors import ConfigError, choice_error
+from hvs_sim.errors import ConfigError
 from hvs_sim.tracking.base import Estimate, Tracker
 from hvs_sim.tracking.frames import to_grey
 from hvs_sim.tracking.occlusion import TAU_PIX, aligned_patch, occlusion_fraction
-from hvs_sim.tracking.warp import WARPS, project_similarity
+from hvs_sim.tracking.warp import check_warp, project_similarity
 from hvs_sim.validate import check_number
 
 SIFT_HOMOGRAPHY_MIN = 8  # matches before a homography is fitted (4 fit one exactly, with nothing to check it)
-
-
-def _check_warp(warp: str) -> str:
-    if warp not in WARPS:
-        raise choice_error("warp", warp, WARPS)
-    return warp
 
 
 class _GreyTemplate(Tracker):
@@ -41,7 +35,7 @@ class SiftTracker(_GreyTemplate):
 
     def __init__(self, ratio: float = 0.75, min_inliers: int = 6, ransac_px: float = 3.0, warp: str = "similarity"):
         super().__init__()
-        self.warp = _check_warp(warp)
+        self.warp = check_warp(warp)
         check_number("sift ratio", ratio, 0, 1, lo_open=True, hi_open=True)
         check_number("sift min_inliers", min_inliers, 3, integer=True)  # a similarity needs 2 points, RANSAC a spare
         check_number("sift ransac_px", ransac_px, 0, lo_open=True)
@@ -87,7 +81,7 @@ class EccTracker(_GreyTemplate):
 
     def __init__(self, iterations: int = 50, eps: float = 1e-4, gauss: int = 5, warp: str = "similarity"):
         super().__init__()
-        self.warp = _check_warp(warp)
+        self.warp = check_warp(warp)
         check_number("ecc iterations", iterations, 1, integer=True)
         check_number("ecc eps", eps, 0, lo_open=True)
         check_number("ecc gauss", gauss, 1, integer=True)

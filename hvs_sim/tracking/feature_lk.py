@@ -21,9 +21,9 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from hvs_sim.errors import ConfigError, choice_error
+from hvs_sim.errors import ConfigError
 from hvs_sim.tracking.nets.vgg import STRIDES
-from hvs_sim.tracking.warp import WARP_PARAMS, WARPS, apply, homography_params_to_matrix, params_to_matrix
+from hvs_sim.tracking.warp import WARP_PARAMS, apply, check_warp, homography_params_to_matrix, params_to_matrix
 
 HUBER_K = 1.345  # Huber threshold in robust standard deviations (95 % efficiency on Gaussian residuals)
 MAD_TO_SIGMA = 1.4826  # median absolute deviation → standard deviation
@@ -96,9 +96,7 @@ class FeatureICLK:
     """IC-LK of one template; `align` is called once per frame with that frame's feature maps."""
 
     def __init__(self, config: LKConfig = LKConfig(), warp: str = "similarity"):
-        if warp not in WARPS:
-            raise choice_error("warp", warp, WARPS)
-        self.config, self.warp, self.n_params = config, warp, WARP_PARAMS[warp]
+        self.config, self.warp, self.n_params = config, check_warp(warp), WARP_PARAMS[warp]
         self.levels: list[_Level] = []
 
     def set_template(self, feats: dict[str, torch.Tensor], origin: np.ndarray, center: np.ndarray, rho: float,

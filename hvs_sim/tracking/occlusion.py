@@ -19,7 +19,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from hvs_sim.tracking.warp import is_affine
+from hvs_sim.tracking.warp import warp_image
 
 TAU_PIX = 30  # grey levels
 GAIN_RANGE = (0.5, 2.0)  # exposure gains the normalisation may explain
@@ -36,13 +36,9 @@ def aligned_patch(grey: np.ndarray, A: np.ndarray, origin: np.ndarray, shape: tu
     T = np.array([[1, 0, origin[0]], [0, 1, origin[1]], [0, 0, 1.0]])
     M = A @ T
     h, w = shape
-    if is_affine(M):
-        warp, M = cv2.warpAffine, M[:2]
-    else:
-        warp = cv2.warpPerspective
-    patch = warp(grey, M, (w, h), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT)
-    inside = warp(np.full(grey.shape[:2], 255, np.uint8), M, (w, h),
-                  flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT) > 0
+    patch = warp_image(grey, M, (w, h), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT)
+    inside = warp_image(np.full(grey.shape[:2], 255, np.uint8), M, (w, h),
+                        flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT) > 0
     return patch, inside
 
 

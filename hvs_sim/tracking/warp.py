@@ -9,10 +9,20 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
+
+from hvs_sim.errors import choice_error
 
 WARPS = ("similarity", "homography")  # the warp models a tracker can estimate (`warp=` setting)
 WARP_PARAMS = {"similarity": 4, "homography": 8}
+
+
+def check_warp(warp: str) -> str:
+    """`warp` if it is one of WARPS, else a ConfigError listing them."""
+    if warp not in WARPS:
+        raise choice_error("warp", warp, WARPS)
+    return warp
 
 
 def similarity(tx: float, ty: float, theta: float, scale: float) -> np.ndarray:
@@ -40,6 +50,13 @@ def translate(A: np.ndarray, delta) -> np.ndarray:
 
 def is_affine(A: np.ndarray) -> bool:
     return bool(A[2, 0] == 0.0 and A[2, 1] == 0.0 and A[2, 2] == 1.0)
+
+
+def warp_image(image: np.ndarray, M: np.ndarray, size: tuple[int, int], **kwargs) -> np.ndarray:
+    """cv2.warpAffine for an affine 3×3, cv2.warpPerspective otherwise (`kwargs`: flags, borderMode)."""
+    if is_affine(M):
+        return cv2.warpAffine(image, np.ascontiguousarray(M[:2]), size, **kwargs)
+    return cv2.warpPerspective(image, M, size, **kwargs)
 
 
 def pose_to_matrix(pose, center) -> np.ndarray:

@@ -182,10 +182,9 @@ class RerunLogger:
             rec.log("plots/log10_tracker_error_px", rr.Scalars(np.log10(max(r.tracker_error_px, 1e-3))))
         rec.log("plots/pose_error_mm", rr.Scalars(float(np.linalg.norm(r.pose_error[:3]))))
         rec.log("plots/pose_error_deg", rr.Scalars(float(np.linalg.norm(r.pose_error[3:]))))
-        sv = r.singular_values
-        if len(sv) and sv.min() > 0:
-            rec.log("plots/condition_L", rr.Scalars(float(sv.max() / sv.min())))
-            rec.log("plots/rank_L", rr.Scalars(int((sv > 1e-6 * sv.max()).sum())))
+        if r.condition is not None:
+            rec.log("plots/condition_L", rr.Scalars(r.condition))
+            rec.log("plots/rank_L", rr.Scalars(r.rank))
         rec.log("plots/occlusion", rr.Scalars(r.occlusion))
         rec.log("plots/mode", rr.Scalars(MODE_CODE.get(r.mode, 3)))
         for name, v in zip(TWIST, r.twist):
