@@ -12,7 +12,6 @@ from pathlib import Path
 from hvs_sim.loop import LoopConfig
 from hvs_sim.runner import run_episode
 from hvs_sim.scene.scenarios import make_scenario
-from hvs_sim.viz.figures import run_figures
 
 
 def main() -> None:
@@ -21,9 +20,8 @@ def main() -> None:
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    summary, recs = run_episode(make_scenario("walk_by", mount="arm", seed=0), "hybrid", LoopConfig(steps=240),
-                                keep_records=True)
-    frames, error = run_figures(recs, summary, out)
+    summary, _ = run_episode(make_scenario("walk_by", mount="arm", seed=0), "hybrid", LoopConfig(steps=240), figures=out)
+    frames, error = (Path(p) for p in summary["figures"])
     frames.replace(out / "run_walk_by_hybrid_frames.png")
     error.replace(out / "run_walk_by_hybrid_error.png")
     print(summary)

@@ -21,7 +21,8 @@ def _scenario_from_args(args):
     from hvs_sim.scene.scenarios import CameraConfig, make_scenario
     from hvs_sim.scene.textures import NATURAL_TEXTURES
 
-    overrides = {"camera": CameraConfig(width=args.width, height=args.height, fovy=args.fovy, sensor=args.camera)}
+    overrides = {"camera": CameraConfig(width=args.width, height=args.height, fovy=args.fovy, sensor=args.camera,
+                                        multisample=args.multisample)}
     if args.target:
         if args.target not in FLAG_NAMES + NATURAL_TEXTURES:
             raise ConfigError(f"unknown target {args.target!r}; accepted: a flag ({', '.join(FLAG_NAMES)}) or a "
@@ -44,7 +45,13 @@ def _scenario_from_args(args):
 
 def _add_scene_args(p: argparse.ArgumentParser, mount: bool) -> None:
     from hvs_sim.camera_model import SENSOR_NAMES
-    from hvs_sim.scene.scenarios import PEOPLE_STYLES, SCENARIO_NAMES, WALL_SETS
+    from hvs_sim.scene.scenarios import (
+        DEFAULT_MULTISAMPLE,
+        MULTISAMPLE_CHOICES,
+        PEOPLE_STYLES,
+        SCENARIO_NAMES,
+        WALL_SETS,
+    )
 
     p.add_argument("--scenario", default="walk_by", help=f"one of: {', '.join(SCENARIO_NAMES)} (hvs-sim scenes --list)")
     if mount:  # `run` is closed-loop: its camera is on the arm, so it offers no --mount
@@ -63,6 +70,8 @@ def _add_scene_args(p: argparse.ArgumentParser, mount: bool) -> None:
     p.add_argument("--width", type=int, default=640, help="image width in pixels (64-4096)")
     p.add_argument("--height", type=int, default=480, help="image height in pixels (64-4096)")
     p.add_argument("--fovy", type=float, default=45.0, help="vertical field of view in degrees")
+    p.add_argument("--multisample", type=int, default=DEFAULT_MULTISAMPLE, choices=MULTISAMPLE_CHOICES,
+                   help="anti-aliasing samples per pixel of the render (0 = off, about half the render time)")
 
 
 def cmd_scene(args) -> int:
@@ -109,10 +118,10 @@ def cmd_run(args) -> int:
     scenario = _scenario_from_args(args)
     if args.start_offset is not None:
         scenario = dataclasses.replace(scenario, start_offset=parse_start_offset(args.start_offset))
-    config = LoopConfig(steps=args.steps, controller=args.controller)
-    summary, records = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,
-                                   keep_records=bool(args.rrd or args.spawn or args.figures),
-                                   tracker_settings=settings)
+    config = LoopConfig(steps=args.steps, controller=args.controller, evaluate=not args.no_eval,
+                        keep_frames=bool(args.rrd or args.spawn or args.figures))
+    summary, _ = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,
+                             tracker_settings=settings, figures=args.figures)
     brief = {k: summary[k] for k in ("converged", "steps_to_converge", "final_error_px", "final_pose_error_mm",
                                      "final_pose_error_deg", "controlled_dofs", "max_error_px_during_occlusion",
                                      "lost_steps", "predict_steps", "fault_steps", "steps_per_second")}
@@ -120,10 +129,7 @@ def cmd_run(args) -> int:
     if args.json:
         print(f"summary: {args.json}")
     if args.figures:
-        from hvs_sim.viz.figures import run_figures
-
-        paths = run_figures(records, summary, Path(args.figures), config.converge_px)
-        print("figures: " + ", ".join(map(str, paths)))
+        print("figures: " + ", ".join(summary["figures"]))
     if args.rrd:
         viewer = "rerun" if shutil.which("rerun") else str(Path(sys.executable).parent / "rerun")
         print(f"recording: {args.rrd}  (open it with: {viewer} {args.rrd})")
@@ -433,6 +439,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the tracker's warp model (default: the tracker's, similarity); homography gives perspective "
                         "corners, and the controller then commands all six DOF")
     p.add_argument("--controller", default="ibvs", choices=CONTROLLERS, help="the servo law")
+    p.add_argument("--no-eval", action="store_true",
+                   help="skip the evaluation render (the true occlusion, one segmentation render a step); errors "
+                        "and pose errors, which need no render, are still recorded. Control never reads ground truth")
     p.add_argument("--start-offset", default=None, metavar="DX,DY,DZ,ROLL,PITCH,YAW",
                    help="start pose relative to the reference pose, camera frame (metres, degrees; dz > 0 is "
                         "towards the target); write --start-offset=-0.03,... when the first value is negative; "

@@ -10,12 +10,11 @@ import dataclasses
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from itertools import pairwise
 
 import numpy as np
 
 from hvs_sim.camera_model import undistort_points
-from hvs_sim.control.arm import ArmLimits, camera_twist_to_world, twist_to_joint_velocities
+from hvs_sim.control.arm import ArmDriver
 from hvs_sim.control.ibvs import (
     CONTROLLERS,
     DOF_NAMES,
@@ -51,6 +50,11 @@ class LoopConfig:
     hold_steps: int = 10  # ... when held this many consecutive steps
     ibvs: IBVSConfig = field(default_factory=IBVSConfig)
     keep_frames: bool = True  # put the rendered frame in each record (for logging)
+    # the evaluation renders (the true occlusion, one segmentation render a step). Off: no render but the
+    # camera's; records keep the geometric truth (corner and pose errors, no rendering) and occlusion NaN.
+    # Control never reads either: features from the tracker, camera pose from the joints, depth from the
+    # tracked scale (IBVSConfig.depth="true" asks the simulator)
+    evaluate: bool = True
     controller: str = "ibvs"  # the servo law: "ibvs" (v = −λ L⁺ e) or "pbvs" (pbvs.py); both use `ibvs`'s gains
     # and the pose must be within these of the reference pose, in the DOFs controlled (ground truth)
     converge_mm: float = CONVERGE_MM
@@ -118,7 +122,7 @@ def corners_in_view(px: np.ndarray, camera, margin: float = 0.0) -> bool:
 def check_start_in_view(scene: Scene, renderer: Renderer) -> None:
     """ConfigError unless all four target corners are inside the image from the scenario's start pose."""
     start_pos, start_R = scene.start_pose()
-    px = renderer.project(CameraPose(start_R, start_pos), renderer.target_corners_world())
+    px = renderer.project(CameraPose(start_R, start_pos), scene.target_corners_world())
     cam = scene.scenario.camera
     if not corners_in_view(px, cam, IN_VIEW_MARGIN_PX):
         raise ConfigError(f"from the start offset {scene.scenario.start_offset_text} the target is not fully in view "
@@ -155,11 +159,10 @@ class ServoLoop:
         self.scenario, self.tracker_name, self.config = scenario, tracker, config
         self.scene = Scene(scenario)
         self.renderer = Renderer(self.scene)
-        lower, upper, qdot_max = self.scene.joint_limits()
-        self.limits = ArmLimits(qdot_max=qdot_max, q_lower=lower, q_upper=upper)
+        self.arm = ArmDriver(self.scene)
         # desired flag corners: the target seen from the reference pose (centred, at the standoff)
         ref_pos, ref_R = self.scene.reference_pose()
-        self.flag_desired = self.renderer.project(CameraPose(ref_R, ref_pos), self.renderer.target_corners_world())
+        self.flag_desired = self.renderer.project(CameraPose(ref_R, ref_pos), self.scene.target_corners_world())
         self.desired_depth = float(scenario.standoff)
         check_start_in_view(self.scene, self.renderer)
         # the DOFs the features observe: ground truth and a homography tracker give perspective corners
@@ -176,6 +179,11 @@ class ServoLoop:
         cols = [DOF_NAMES.index(d) for d in self.dofs]
         lin, ang = [c for c in cols if c < 3], [c for c in cols if c >= 3]
         return float(np.linalg.norm(pose_error[lin])), float(np.linalg.norm(pose_error[ang]))
+
+    def true_depths(self) -> np.ndarray:
+        """Depth (m) of each target corner in the camera frame, from the simulator (IBVSConfig.depth="true")."""
+        pos, R = self.scene.camera_pose_cv()
+        return ((self.scene.target_corners_world() - pos) @ R)[:, 2]
 
     def _pinhole(self, pts: np.ndarray) -> np.ndarray:
         """Image points with the lens distortion taken out, as a calibrated camera would give IBVS its features
@@ -195,7 +203,7 @@ class ServoLoop:
             frame = r.rgb()
             timings["render"] = 1e3 * (time.perf_counter() - t0)
             t0 = time.perf_counter()
-            gt: GroundTruth = r.ground_truth(occlusion=True)
+            gt: GroundTruth = r.ground_truth(occlusion=cfg.evaluate)
             timings["ground_truth"] = 1e3 * (time.perf_counter() - t0)
             if step == 0:
                 flag0 = gt.corners
@@ -228,15 +236,15 @@ class ServoLoop:
             ctrl = None
             if fault is None:
                 try:  # PBVS cannot take a pose from a degenerate quad: like a tracker fault, stop the arm and record it
-                    ctrl = controller.compute(self._pinhole(features), np.full(4, gt.target_depth), mode)
+                    depths = self.true_depths() if self.ibvs_config.depth == "true" else None  # only when asked
+                    ctrl = controller.compute(self._pinhole(features), depths, mode)
                 except HvsError as exc:
                     fault, mode = f"{type(exc).__name__}: {exc}", "fault"
             if ctrl is not None:
                 twist, gain, sat, sv = ctrl.twist, ctrl.gain, ctrl.saturated, ctrl.singular_values
             else:
                 twist, gain, sat, sv = np.zeros(6), 0.0, False, np.zeros(0)
-            cmd = twist_to_joint_velocities(scene.camera_jacobian(), camera_twist_to_world(gt.camera.R, twist),
-                                            scene.joint_positions, self.limits)
+            cmd = self.arm.command(twist)
             timings["control"] = 1e3 * (time.perf_counter() - t0)
             pose_err = scene.pose_error()
             record = StepRecord(
@@ -256,64 +264,129 @@ class ServoLoop:
             yield record
 
 
-def summarize_run(records: list[StepRecord], config: LoopConfig) -> dict:
-    """The run's JSON summary: convergence from ground truth, occlusion behaviour, stage timings.
+MODES = ("align", "predict", "lost", "fault")
 
-    Converged: for `hold_steps` consecutive steps the image error is under `converge_px` AND the
-    camera's pose error, in the DOFs the controller commands, is under `converge_mm` / `converge_deg`
-    (a 4-DOF loop that centres a tilted target by sliding sideways has a small image error but not the pose)."""
-    err = np.array([r.error_px for r in records])
-    ctrl_pose = np.array([r.controlled_pose_error for r in records])
-    below = (err < config.converge_px) & (ctrl_pose[:, 0] < config.converge_mm) & (ctrl_pose[:, 1] < config.converge_deg)
-    steps_to_converge = None
-    run = 0
-    for i, b in enumerate(below):
-        run = run + 1 if b else 0
-        if run >= config.hold_steps:
-            steps_to_converge = i - config.hold_steps + 1
-            break
-    occluded = np.array([r.occlusion > 0 for r in records])
-    modes = [r.mode for r in records]
-    stages = sorted({k for r in records for k in r.timings})
-    timing = {k: {"median_ms": float(np.median([r.timings.get(k, 0.0) for r in records])),
-                  "mean_ms": float(np.mean([r.timings.get(k, 0.0) for r in records]))} for k in stages}
-    step_ms = np.array([sum(r.timings.values()) for r in records])
-    final = records[-1]
-    conds = [r.condition for r in records if r.condition is not None]
-    ranks = [r.rank for r in records if r.rank is not None]
-    return {
-        "controller": config.controller,
-        "damping": records[0].damping,
-        "controlled_dofs": list(final.dofs),
-        "pose_bound": {"mm": config.converge_mm, "deg": config.converge_deg,
-                       "applies_to": list(final.dofs),
-                       "note": "converged = image error under converge_px and the pose error in these DOFs under "
-                               "the bound, both held hold_steps steps"},
-        "final_pose_error_mm": float(np.linalg.norm(final.pose_error[:3])),
-        "final_pose_error_deg": float(np.linalg.norm(final.pose_error[3:])),
-        "final_pose_error": dict(zip(("x_mm", "y_mm", "z_mm", "about_x_deg", "about_y_deg", "about_z_deg"),
-                                     (float(v) for v in final.pose_error))),
-        "final_controlled_pose_error_mm": float(final.controlled_pose_error[0]),
-        "final_controlled_pose_error_deg": float(final.controlled_pose_error[1]),
-        "camera_path_m": float(sum(np.linalg.norm(b.camera.t - a.camera.t) for a, b in pairwise(records))),
-        "target_out_of_view_steps": int(sum(not r.target_in_view for r in records)),
-        "max_condition_number": max(conds) if conds else None,
-        "min_rank": min(ranks) if ranks else None,
-        "converged": steps_to_converge is not None,
-        "steps_to_converge": steps_to_converge,
-        "seconds_to_converge": None if steps_to_converge is None else float(records[steps_to_converge].time),
-        "final_error_px": float(err[-1]),
-        "min_error_px": float(err.min()),
-        "max_error_px_during_occlusion": float(err[occluded].max()) if occluded.any() else None,
-        "occluded_steps": int(occluded.sum()),
-        "lost_steps": int(sum(m == "lost" for m in modes)),
-        "predict_steps": int(sum(m == "predict" for m in modes)),
-        "fault_steps": int(sum(m == "fault" for m in modes)),
-        "faults": sorted({r.fault for r in records if r.fault}),
-        "saturated_steps": int(sum(r.saturated for r in records)),
-        "limit_blocked_steps": int(sum(bool(r.limit_blocked) for r in records)),
-        "median_tracker_error_px": float(np.nanmedian([r.tracker_error_px for r in records])),
-        "steps": len(records),
-        "timing": timing,
-        "steps_per_second": float(1e3 / np.mean(step_ms)),
-    }
+
+class RunStats:
+    """A run's summary, accumulated step by step in arrays sized for `config.steps` when the run starts,
+    so that memory does not grow with the steps taken (a 100 000-step run keeps no records)."""
+
+    def __init__(self, config: LoopConfig):
+        n = config.steps
+        self.config, self.n = config, 0
+        self.time, self.error_px, self.tracker_error_px, self.occlusion = (np.full(n, np.nan) for _ in range(4))
+        self.controlled = np.full((n, 2), np.nan)
+        self.mode = np.zeros(n, np.int8)
+        self.step_ms = np.zeros(n)
+        self.timings: dict[str, np.ndarray] = {}
+        self.faults: set[str] = set()
+        self.saturated = self.limit_blocked = self.out_of_view = 0
+        self.path_m = 0.0
+        self.max_condition: float | None = None
+        self.min_rank: int | None = None
+        self.first: StepRecord | None = None
+        self.last: StepRecord | None = None
+
+    def add(self, r: StepRecord) -> None:
+        if self.n >= len(self.time):
+            raise StateError(f"RunStats holds {len(self.time)} steps (LoopConfig.steps); got one more")
+        k = self.n
+        self.time[k], self.error_px[k], self.tracker_error_px[k] = r.time, r.error_px, r.tracker_error_px
+        self.occlusion[k], self.controlled[k] = r.occlusion, r.controlled_pose_error
+        self.mode[k] = MODES.index(r.mode) if r.mode in MODES else MODES.index("fault")
+        for stage, ms in r.timings.items():
+            self.timings.setdefault(stage, np.zeros(len(self.time)))[k] = ms
+        self.step_ms[k] = sum(r.timings.values())
+        if r.fault:
+            self.faults.add(r.fault)
+        self.saturated += bool(r.saturated)
+        self.limit_blocked += bool(r.limit_blocked)
+        self.out_of_view += not r.target_in_view
+        if self.last is not None:
+            self.path_m += float(np.linalg.norm(r.camera.t - self.last.camera.t))
+        if r.condition is not None:
+            self.max_condition = max(self.max_condition or 0.0, r.condition)
+        if r.rank is not None:
+            self.min_rank = r.rank if self.min_rank is None else min(self.min_rank, r.rank)
+        light = dataclasses.replace(r, frame=None, track=None, people=[], arm=None)  # no image held
+        self.first = self.first or light
+        self.last = light
+        self.n += 1
+
+    def series(self) -> dict[str, np.ndarray]:
+        """Per-step time, errors, occlusion and mode of the steps so far (for figures)."""
+        n = self.n
+        return {"time": self.time[:n], "error_px": self.error_px[:n], "tracker_error_px": self.tracker_error_px[:n],
+                "occlusion": self.occlusion[:n], "predict": self.mode[:n] == MODES.index("predict")}
+
+    def summary(self) -> dict:
+        """The run's JSON summary: convergence from ground truth, occlusion behaviour, stage timings.
+
+        Converged: for `hold_steps` consecutive steps the image error is under `converge_px` AND the
+        camera's pose error, in the DOFs the controller commands, is under `converge_mm` / `converge_deg`
+        (a 4-DOF loop that centres a tilted target by sliding sideways has a small image error but not the pose)."""
+        if self.n == 0:
+            raise StateError("no steps to summarise")
+        config, n, final = self.config, self.n, self.last
+        err, ctrl_pose = self.error_px[:n], self.controlled[:n]
+        below = (err < config.converge_px) & (ctrl_pose[:, 0] < config.converge_mm) & (ctrl_pose[:, 1] < config.converge_deg)
+        steps_to_converge = None
+        run = 0
+        for i, b in enumerate(below):
+            run = run + 1 if b else 0
+            if run >= config.hold_steps:
+                steps_to_converge = i - config.hold_steps + 1
+                break
+        occ = self.occlusion[:n]
+        evaluated = bool(np.all(np.isfinite(occ)))
+        occluded = occ > 0  # NaN (not evaluated) counts as not occluded; the occlusion figures are then None
+        mode = self.mode[:n]
+        count = {m: int(np.sum(mode == i)) for i, m in enumerate(MODES)}
+        timing = {k: {"median_ms": float(np.median(v[:n])), "mean_ms": float(np.mean(v[:n]))}
+                  for k, v in sorted(self.timings.items())}
+        tracker_err = self.tracker_error_px[:n]
+        return {
+            "controller": config.controller,
+            "damping": self.first.damping,
+            "controlled_dofs": list(final.dofs),
+            "pose_bound": {"mm": config.converge_mm, "deg": config.converge_deg,
+                           "applies_to": list(final.dofs),
+                           "note": "converged = image error under converge_px and the pose error in these DOFs under "
+                                   "the bound, both held hold_steps steps"},
+            "final_pose_error_mm": float(np.linalg.norm(final.pose_error[:3])),
+            "final_pose_error_deg": float(np.linalg.norm(final.pose_error[3:])),
+            "final_pose_error": dict(zip(("x_mm", "y_mm", "z_mm", "about_x_deg", "about_y_deg", "about_z_deg"),
+                                         (float(v) for v in final.pose_error))),
+            "final_controlled_pose_error_mm": float(final.controlled_pose_error[0]),
+            "final_controlled_pose_error_deg": float(final.controlled_pose_error[1]),
+            "camera_path_m": self.path_m,
+            "target_out_of_view_steps": self.out_of_view,
+            "max_condition_number": self.max_condition,
+            "min_rank": self.min_rank,
+            "converged": steps_to_converge is not None,
+            "steps_to_converge": steps_to_converge,
+            "seconds_to_converge": None if steps_to_converge is None else float(self.time[steps_to_converge]),
+            "final_error_px": float(err[-1]),
+            "min_error_px": float(err.min()),
+            "evaluated": evaluated,
+            "max_error_px_during_occlusion": float(err[occluded].max()) if occluded.any() else None,
+            "occluded_steps": int(occluded.sum()) if evaluated else None,
+            "lost_steps": count["lost"],
+            "predict_steps": count["predict"],
+            "fault_steps": count["fault"],
+            "faults": sorted(self.faults),
+            "saturated_steps": self.saturated,
+            "limit_blocked_steps": self.limit_blocked,
+            "median_tracker_error_px": float(np.nanmedian(tracker_err)) if np.isfinite(tracker_err).any() else None,
+            "steps": n,
+            "timing": timing,
+            "steps_per_second": float(1e3 / np.mean(self.step_ms[:n])),
+        }
+
+
+def summarize_run(records: list[StepRecord], config: LoopConfig) -> dict:
+    """RunStats.summary of a list of records (see there)."""
+    stats = RunStats(dataclasses.replace(config, steps=max(len(records), 1)))
+    for r in records:
+        stats.add(r)
+    return stats.summary()

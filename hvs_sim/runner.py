@@ -2,24 +2,38 @@
 
 from __future__ import annotations
 
+import csv
+import dataclasses
 import json
 import time
 from dataclasses import asdict
 from pathlib import Path
 
-from hvs_sim.loop import LoopConfig, ServoLoop, StepRecord, summarize_run
+import numpy as np
+
+from hvs_sim.errors import ConfigError
+from hvs_sim.loop import LoopConfig, RunStats, ServoLoop, StepRecord
 from hvs_sim.scene.scenarios import Scenario
+
+FIGURE_RISING_OCCLUSION = 0.3  # frames.png's second tile: the first step with more of the target hidden
 
 
 def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = None, rrd: str | None = None,
                 spawn: bool = False, progress: bool = True, json_path: str | None = None,
-                keep_records: bool = False, tracker_settings: dict | None = None) -> tuple[dict, list[StepRecord]]:
-    """Run and summarise one episode; write an .rrd and/or JSON when paths are given.
+                keep_records: bool = False, tracker_settings: dict | None = None,
+                figures: str | Path | None = None) -> tuple[dict, list[StepRecord]]:
+    """Run and summarise one episode; write an .rrd, JSON (+ per-step CSV) and figures when paths are given.
+
+    Memory stays flat in the number of steps: the summary is accumulated (RunStats), the CSV rows and the
+    recording are written as the run goes, and only the frames the figures show are held. The records are
+    returned only with keep_records (then they hold everything but the frames).
     tracker_settings: the tracker's config fields (make_tracker keywords)."""
     from tqdm.auto import tqdm
 
     logger = None
     config = LoopConfig() if config is None else config
+    if figures and not config.keep_frames:
+        raise ConfigError("figures need the frames: LoopConfig(keep_frames=True)")
     loop = ServoLoop(scenario, tracker, config, **(tracker_settings or {}))
     if rrd or spawn:
         from hvs_sim.viz.rerun_log import RerunLogger, recording
@@ -31,9 +45,17 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
                  "camera": scenario.camera.sensor.name, "target": scenario.target_label, "wall": scenario.wall,
                  "people": scenario.people, "start_offset": list(scenario.start_offset), "loop": asdict(config)}
         logger = RerunLogger(rec, loop.renderer.K, scenario.camera.width, scenario.camera.height,
-                             loop.renderer.target_corners_world(), config=setup, wall=loop.scene.wall_box(),
+                             loop.scene.target_corners_world(), config=setup, wall=loop.scene.wall_box(),
                              arm_meshes=loop.scene.arm_meshes())
-    records = []
+    stats = RunStats(config)
+    picks = FramePicks(config.steps) if figures else None
+    records: list[StepRecord] = []
+    csv_file = steps_csv = None
+    if json_path:
+        Path(json_path).parent.mkdir(parents=True, exist_ok=True)
+        csv_file = open(steps_csv_path(json_path), "w", newline="")  # noqa: SIM115 - closed in finally
+        steps_csv = csv.writer(csv_file)
+        steps_csv.writerow(STEP_COLUMNS)
     bar = tqdm(total=config.steps, disable=not progress, desc=f"{scenario.name}/{tracker}", unit="step")
     interrupted = completed = False
     try:
@@ -42,42 +64,85 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
             if logger is not None:
                 logger.log_step(r)
             r.timings["log"] = 1e3 * (time.perf_counter() - t0)
-            if not keep_records:
-                r.frame = None
-            records.append(r)
+            stats.add(r)
+            if steps_csv is not None:
+                steps_csv.writerow(step_row(r))
+            if picks is not None:
+                picks.offer(r)
+            r.frame = None
+            if keep_records:
+                records.append(r)
             bar.update(1)
-            bar.set_postfix(err=f"{r.error_px:.2f}px", mode=r.mode, occ=f"{r.occlusion:.0%}", refresh=False)
+            occ = "" if np.isnan(r.occlusion) else f"{r.occlusion:.0%}"
+            bar.set_postfix(err=f"{r.error_px:.2f}px", mode=r.mode, occ=occ, refresh=False)
         completed = True
     except KeyboardInterrupt:  # Ctrl-C, or SIGTERM turned into one by the CLI: keep what was done, then go on
         interrupted = True
         raise
     finally:
         bar.close()
+        if csv_file is not None:
+            csv_file.close()
         if logger is not None:  # a complete recording of the steps so far, whatever stopped the run
-            if records:
-                logger.log_summary(_summary(scenario, tracker, config, records, logger, interrupted))
+            if stats.n:
+                logger.log_summary(_summary(scenario, tracker, stats, logger, interrupted))
             logger.rec.flush()
             logger.rec.disconnect()
-        if json_path and (completed or (interrupted and records)):
-            _write_summary(json_path, scenario, tracker, config, records, logger, interrupted)
-    return _summary(scenario, tracker, config, records, logger, False), records
+        if json_path and (completed or (interrupted and stats.n)):
+            Path(json_path).write_text(json.dumps(_summary(scenario, tracker, stats, logger, interrupted), indent=2))
+    summary = _summary(scenario, tracker, stats, logger, False)
+    if figures:
+        from hvs_sim.viz.figures import run_figures
+
+        summary["figures"] = [str(p) for p in run_figures(picks.records(), stats.series(), summary, Path(figures),
+                                                           config.converge_px)]
+    return summary, records
 
 
-def _summary(scenario, tracker, config, records, logger, interrupted: bool) -> dict:
+class FramePicks:
+    """The four steps `frames.png` shows, chosen as the run goes so that only their frames are held: the
+    start, the first step over FIGURE_RISING_OCCLUSION, the peak occlusion, the end (without occlusion
+    figures, evaluate=False: the thirds of the run)."""
+
+    def __init__(self, steps: int):
+        self.steps = steps
+        self.start = self.rising = self.peak = self.last = None
+        self.thirds: dict[int, StepRecord] = {}
+
+    def offer(self, r: StepRecord) -> None:
+        keep = dataclasses.replace(r, people=[], arm=None)
+        if self.start is None:
+            self.start = keep
+        occ = r.occlusion
+        if np.isfinite(occ):
+            if self.rising is None and occ > FIGURE_RISING_OCCLUSION:
+                self.rising = keep
+            if self.peak is None or occ > self.peak.occlusion:
+                self.peak = keep
+        if r.step in (self.steps // 3, 2 * self.steps // 3):
+            self.thirds[r.step] = keep
+        self.last = keep
+
+    def records(self) -> list[StepRecord]:
+        if self.start is None:
+            return []
+        if self.peak is not None and self.peak.occlusion > 0:
+            middle = [self.rising or self.start, self.peak]
+        else:
+            middle = [self.thirds.get(k, self.last) for k in sorted(self.thirds)] or [self.start, self.last]
+            middle = (middle + [self.last])[:2]
+        return [self.start, *middle, self.last]
+
+
+def _summary(scenario, tracker, stats: RunStats, logger, interrupted: bool) -> dict:
     out = {"scenario": scenario.name, "mount": scenario.mount, "seed": scenario.seed, "tracker": tracker,
            "camera": scenario.camera.sensor.name, "target": scenario.target_label, "wall": scenario.wall,
            "people": scenario.people, "interrupted": interrupted}
-    if records:
-        out.update(summarize_run(records, config))
-        out["steps_run"] = len(records)
+    if stats.n:
+        out.update(stats.summary())
+        out["steps_run"] = stats.n
     out["logging_failed"] = bool(logger and logger.failed)
     return out
-
-
-def _write_summary(json_path, scenario, tracker, config, records, logger, interrupted: bool) -> None:
-    Path(json_path).parent.mkdir(parents=True, exist_ok=True)
-    Path(json_path).write_text(json.dumps(_summary(scenario, tracker, config, records, logger, interrupted), indent=2))
-    write_steps_csv(records, steps_csv_path(json_path))
 
 
 STEP_COLUMNS = ("step", "time", "mode", "error_px", "tracker_error_px", "occlusion", "vx", "vy", "vz", "wx", "wy", "wz",
@@ -91,14 +156,8 @@ def steps_csv_path(json_path) -> Path:
     return p.with_name(p.stem + "_steps.csv")
 
 
-def write_steps_csv(records, path: Path) -> None:
-    import csv
-
-    with open(path, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(STEP_COLUMNS)
-        for r in records:
-            w.writerow([r.step, f"{r.time:.4f}", r.mode, f"{r.error_px:.4f}", f"{r.tracker_error_px:.4f}",
-                        f"{r.occlusion:.4f}", *(f"{v:.6f}" for v in r.twist), f"{r.gain:.4f}", int(r.saturated),
-                        r.fault or "", *(f"{v:.4f}" for v in r.pose_error),
-                        "" if r.condition is None else f"{r.condition:.1f}"])
+def step_row(r: StepRecord) -> list:
+    return [r.step, f"{r.time:.4f}", r.mode, f"{r.error_px:.4f}", f"{r.tracker_error_px:.4f}",
+            "" if np.isnan(r.occlusion) else f"{r.occlusion:.4f}", *(f"{v:.6f}" for v in r.twist), f"{r.gain:.4f}",
+            int(r.saturated), r.fault or "", *(f"{v:.4f}" for v in r.pose_error),
+            "" if r.condition is None else f"{r.condition:.1f}"]

@@ -40,6 +40,38 @@ def test_projected_centre_matches_segmentation_centroid(mount, seed, offset):
             scene.advance()
 
 
+@pytest.mark.parametrize("name,mount,seed", [("walk_by", "handheld", 0), ("partial", "arm", 1), ("two_people", "handheld", 2)])
+def test_one_render_occlusion_equals_the_two_render_result(name, mount, seed):
+    """Ground truth from one segmentation render plus the projected outline: the occlusion of the two-render
+    method (people shown / hidden) within 0.01, the same visible count, the corners exactly the projection."""
+    sc = make_scenario(name, mount=mount, seed=seed)
+    scene = Scene(sc)
+    r = Renderer(scene)
+    occluded, checked = 0, 0
+    for k in range(sc.n_frames):
+        if k % 4 == 0:
+            gt = r.ground_truth()
+            visible = int(r.target_mask().sum())
+            full = int(r.target_mask(hide_people=True).sum())
+            two_render = 1.0 - visible / full
+            assert gt.visible_px == visible
+            assert abs(gt.occlusion - two_render) <= 0.01, (k, gt.occlusion, two_render)
+            assert gt.occlusion == 0.0 if two_render == 0.0 else True  # exact where no person is on the target
+            assert np.array_equal(gt.corners, project(r.K, r.camera_pose(), scene.target_corners_world()))
+            occluded += 0.05 < two_render < 0.95
+            checked += 1
+        scene.advance()
+    assert occluded >= 3 and checked >= 10  # the comparison saw partly hidden targets, not only clear views
+
+
+def test_ground_truth_without_occlusion_renders_nothing(monkeypatch):
+    scene = Scene(make_scenario("walk_by", mount="arm", seed=0))
+    r = Renderer(scene)
+    monkeypatch.setattr(r, "_segment", lambda *a, **k: pytest.fail("rendered"))
+    gt = r.ground_truth(occlusion=False)
+    assert math.isnan(gt.occlusion) and np.all(np.isfinite(gt.corners))
+
+
 def test_intrinsics_and_projection_conventions():
     K = intrinsics(640, 480, 45.0)
     assert K[0, 2] == 319.5 and K[1, 2] == 239.5
@@ -124,7 +156,8 @@ def test_bad_scenario_input_raises_listing_what_is_accepted(kwargs, needle):
         make_scenario(**kwargs)
 
 
-@pytest.mark.parametrize("cam", [{"width": 0}, {"height": 100000}, {"fovy": 179.0}, {"fovy": 2.0}, {"width": 640.5}])
+@pytest.mark.parametrize("cam", [{"width": 0}, {"height": 100000}, {"fovy": 179.0}, {"fovy": 2.0}, {"width": 640.5},
+                                 {"multisample": 3}, {"multisample": True}, {"multisample": -1}])
 def test_bad_camera_config(cam):
     with pytest.raises(ConfigError):
         CameraConfig(**cam)

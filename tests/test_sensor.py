@@ -196,7 +196,7 @@ def test_distorted_ground_truth_sits_on_the_segmentation_mask():
     pose = r.camera_pose()
     mask = r.target_mask_distorted().astype(np.uint8)
     # the target's outline: dense points along its edges in the world, through the camera model
-    c = r.target_corners_world()
+    c = r.scene.target_corners_world()
     edge = np.concatenate([c[i] + np.linspace(0, 1, 200, endpoint=False)[:, None] * (c[(i + 1) % 4] - c[i])
                            for i in range(4)])
 
@@ -229,15 +229,15 @@ def test_point_transfer_through_a_distorting_lens_is_exact():
     """Points on the target between two views: exact through the lens model, not by a plain homography."""
     model = SensorModel(name="lens", distortion=(-0.25, 0.08, 0.0, 0.0, 0.0))
     r = renderer_for(model, "moving_target", size=(640, 480), start_offset=(0.08, -0.05, 0.0, 0.3))
-    c = r.target_corners_world()
+    c = r.scene.target_corners_world()
     on_target = c[0] + np.array([[0.3, 0.6], [0.5, 0.5], [0.8, 0.1]]) @ np.array([c[1] - c[0], c[3] - c[0]])
     views = []
     for _ in range(2):
         pose = r.camera_pose()
-        views.append((r.project(pose, r.target_corners_world()), r.project(pose, on_target)))
+        views.append((r.project(pose, r.scene.target_corners_world()), r.project(pose, on_target)))
         for _ in range(40):
             r.scene.advance()
-        c_new = r.target_corners_world()
+        c_new = r.scene.target_corners_world()
         on_target = on_target + (c_new[0] - c[0])  # the wall only translates
         c = c_new
     (corners0, pts0), (corners1, pts1) = views

@@ -157,8 +157,8 @@ def _episode(args):
     scen = episode_scenario(scen_name, seed, camera=CameraConfig(sensor=camera), people=people)
     n = steps if steps else scen.n_frames + extra
     loop_config = LoopConfig(steps=n, keep_frames=False, controller=controller, ibvs=IBVSConfig(damping=damping))
-    summary, records = run_episode(scen, tracker, loop_config,
-                                   progress=False, tracker_settings={"warp": warp} if warp else None)
+    summary, records = run_episode(scen, tracker, loop_config, progress=False, keep_records=keep,
+                                   tracker_settings={"warp": warp} if warp else None)
     summary["method"] = method
     summary["start_offset"] = list(scen.start_offset)
     trace = None

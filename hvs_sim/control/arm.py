@@ -1,4 +1,9 @@
-"""Camera twist → joint velocities: damped least squares on the camera Jacobian, with limits."""
+"""Camera twist → joint velocities: damped least squares on the camera Jacobian, with limits.
+
+`ArmDriver` is the one way a camera twist reaches the arm (closed loop, gymnasium env, training data):
+it reads what a real arm gives (joint angles, and from them the camera pose and Jacobian by forward
+kinematics), never the evaluation ground truth.
+"""
 
 from __future__ import annotations
 
@@ -47,6 +52,21 @@ def twist_to_joint_velocities(J: np.ndarray, twist_world: np.ndarray, q: np.ndar
     if saturated:
         qdot = qdot / ratio
     return JointCommand(qdot, saturated, tuple(blocked))
+
+
+class ArmDriver:
+    """Drives a scene's arm by camera twists: q̇ from the joints' forward kinematics, within the joint limits."""
+
+    def __init__(self, scene, damping: float = ArmLimits.damping, margin: float = ArmLimits.margin):
+        lower, upper, qdot_max = scene.joint_limits()  # ConfigError without an arm
+        self.scene = scene
+        self.limits = ArmLimits(qdot_max=qdot_max, q_lower=lower, q_upper=upper, margin=margin, damping=damping)
+
+    def command(self, twist_cam: np.ndarray) -> JointCommand:
+        """Joint velocities for a camera-frame twist (v, ω) (m/s, rad/s; OpenCV axes) at the arm's configuration now."""
+        _, R = self.scene.camera_pose_cv()  # forward kinematics of the joint angles
+        return twist_to_joint_velocities(self.scene.camera_jacobian(), camera_twist_to_world(R, np.asarray(twist_cam, float)),
+                                         self.scene.joint_positions, self.limits)
 
 
 def camera_twist_to_world(R_cv: np.ndarray, twist_cam: np.ndarray) -> np.ndarray:

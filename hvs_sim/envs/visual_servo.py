@@ -25,7 +25,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from hvs_sim.control.arm import ArmLimits, camera_twist_to_world, twist_to_joint_velocities
+from hvs_sim.control.arm import ArmDriver
 from hvs_sim.errors import InputError, StateError, choice_error
 from hvs_sim.render.camera import CameraPose
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
@@ -101,9 +101,8 @@ class VisualServoEnv(gym.Env):
         self.scene = Scene(scen)
         self.renderer = Renderer(self.scene)
         ref_pos, ref_R = self.scene.reference_pose()
-        self.desired = self.renderer.project(CameraPose(ref_R, ref_pos), self.renderer.target_corners_world())
-        lower, upper, qdot_max = self.scene.joint_limits()
-        self.limits = ArmLimits(qdot_max=qdot_max, q_lower=lower, q_upper=upper)
+        self.desired = self.renderer.project(CameraPose(ref_R, ref_pos), self.scene.target_corners_world())
+        self.arm = ArmDriver(self.scene)
         self._held = 0
         err = self._error()
         return self._obs(), {"error_px": err, "occlusion": self._occlusion, "converged": False, "held_steps": 0}
@@ -121,12 +120,9 @@ class VisualServoEnv(gym.Env):
             raise InputError("action contains NaN or inf; the physics would be left in an invalid state")
         a = np.clip(a, -1.0, 1.0)
         if self.action_type == "twist":
-            R = self.renderer.camera_pose().R
-            cmd = twist_to_joint_velocities(self.scene.camera_jacobian(), camera_twist_to_world(R, a * self.scale),
-                                            self.scene.joint_positions, self.limits)
-            qdot = cmd.qdot
+            qdot = self.arm.command(a * self.scale).qdot
         else:
-            qdot = a * self.limits.qdot_max
+            qdot = a * self.arm.limits.qdot_max
         self.scene.advance(qdot)
         err = self._error()
         self._held = self._held + 1 if err < self.converge_px else 0

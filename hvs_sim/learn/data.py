@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 import torch
 
-from hvs_sim.control.arm import ArmLimits, camera_twist_to_world, twist_to_joint_velocities
+from hvs_sim.control.arm import ArmDriver
 from hvs_sim.control.ibvs import IBVSConfig, IBVSController
 from hvs_sim.learn.augment import degrade
 from hvs_sim.render.camera import CameraPose, project, transfer_points
@@ -132,18 +132,15 @@ def arm_track(seed: int, n: int) -> np.ndarray:
                                 wall_motion=tuple(float(v) for v in wall), duration=n / 30.0 + 1))
     r = Renderer(scene)
     ref_pos, ref_R = scene.reference_pose()
-    desired = project(r.K, CameraPose(ref_R, ref_pos), r.target_corners_world())
+    desired = project(r.K, CameraPose(ref_R, ref_pos), scene.target_corners_world())
     ctl = IBVSController(r.K, desired, scene.scenario.standoff, IBVSConfig(gain=float(rng.uniform(0.5, 3.0))))
-    lower, upper, qmax = scene.joint_limits()
-    limits = ArmLimits(qdot_max=qmax, q_lower=lower, q_upper=upper)
+    arm = ArmDriver(scene)
     out = []
     for _ in range(n):
         gt = r.ground_truth(occlusion=False)
         out.append(gt.center)
         tw = ctl.compute(gt.corners).twist
-        cmd = twist_to_joint_velocities(scene.camera_jacobian(), camera_twist_to_world(gt.camera.R, tw),
-                                        scene.joint_positions, limits)
-        scene.advance(cmd.qdot)
+        scene.advance(arm.command(tw).qdot)
     return np.array(out)
 
 

@@ -21,6 +21,8 @@ from hvs_sim.scene.parts import OCCLUDER_GROUP
 from hvs_sim.scene.world import Scene
 
 PERSON_PROBE_HEIGHTS = (0.5, 1.2, 1.7)  # m above the feet: points whose image motion sets the blur sampling
+OUTLINE_SHIFT = 4  # the target's outline is rasterised with 2^-4 px vertex precision
+OUTLINE_SUBPIXEL = 1 << OUTLINE_SHIFT
 BLUR_PROBE_MARGIN = 0.25  # ... counted while within this fraction of the image size outside the frame
 
 
@@ -59,15 +61,17 @@ class Renderer:
         self.K = self.intrinsics_of(scene.scenario)
         self._camera_id = scene.physics.bind(scene.camera).element_id
         self._target_id = scene.physics.bind(scene.wall.target).element_id
+        m = scene.physics.model
+        self._occluder_geom = np.asarray(m.geom_group) == OCCLUDER_GROUP  # by geom id: hides the target as a person
         self._show_people = mj_core.MjvOption()
         self._show_people.geomgroup[OCCLUDER_GROUP] = 1
         self._hide_people = mj_core.MjvOption()
         self._hide_people.geomgroup[OCCLUDER_GROUP] = 0
         self.sensor = cam.sensor
-        self._state = None if self.sensor.is_ideal else SensorState(self.sensor, scene.scenario.seed, (self.height, self.width))
+        self._ideal = self.sensor.is_ideal  # frozen: checked once, not per frame
+        self._state = None if self._ideal else SensorState(self.sensor, scene.scenario.seed, (self.height, self.width))
         # the lights as modelled; flicker and dimming scale them during a capture and put them back after
         self._maps = distortion_maps(self.K, self.sensor.distortion, self.width, self.height) if self.sensor.distortion else None
-        m = scene.physics.model
         self._light0 = (m.light_diffuse.copy(), m.light_ambient.copy(), m.vis.headlight.diffuse.copy(),
                         m.vis.headlight.ambient.copy())
         self._last: tuple[tuple[int, int], np.ndarray] | None = None  # ((scene resets, frame), frame): one capture a frame
@@ -85,7 +89,7 @@ class Renderer:
 
     def rgb(self) -> np.ndarray:
         """H×W×3 uint8 RGB frame as the camera delivers it (the raw render for the `ideal` model)."""
-        if self.sensor.is_ideal:
+        if self._ideal:
             return self._render()
         scene = self.scene
         key = (scene.resets, scene.frame_index)
@@ -135,7 +139,7 @@ class Renderer:
         return float(d.max()) if d.size else 0.0
 
     def _moving_points_px(self) -> np.ndarray:
-        pts = [self.target_center_world()]
+        pts = [self.scene.target_center_world()]
         for pos, R in self.scene.people_poses():
             pts += [pos + R @ np.array([0.0, 0.0, z]) for z in PERSON_PROBE_HEIGHTS]
         return project(self.K, self.camera_pose(), np.array(pts))
@@ -149,11 +153,17 @@ class Renderer:
         uv = project(self.K, pose, points_world)
         return distort_points(self.K, self.sensor.distortion, uv) if self.sensor.distortion else uv
 
-    def _target_mask(self, hide_people: bool) -> np.ndarray:
+    def _segment(self, hide_people: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """(object id, object type) per pixel of a segmentation render of the (undistorted) view."""
         note_rendering()
         seg = self.scene.physics.render(self.height, self.width, camera_id=self._camera_id, segmentation=True,
                                         scene_option=self._hide_people if hide_people else self._show_people)
-        return (seg[..., 0] == self._target_id) & (seg[..., 1] == int(mujoco.mjtObj.mjOBJ_GEOM))
+        return seg[..., 0], seg[..., 1]
+
+    def target_mask(self, hide_people: bool = False) -> np.ndarray:
+        """Boolean mask of the target's pixels not hidden by anything (by anything but people: hide_people)."""
+        ids, types = self._segment(hide_people)
+        return (ids == self._target_id) & (types == int(mujoco.mjtObj.mjOBJ_GEOM))
 
     def target_mask_distorted(self) -> np.ndarray:
         """The target's unhidden pixels in the camera's (distorted) image; equals `target_mask` without distortion."""
@@ -162,34 +172,51 @@ class Renderer:
             return mask
         return cv2.remap(mask.astype(np.uint8), *self._maps, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT) > 0
 
-    def target_mask(self) -> np.ndarray:
-        """Boolean mask of the target's pixels that are not hidden by anything."""
-        return self._target_mask(hide_people=False)
-
     def camera_pose(self) -> CameraPose:
-        b = self.scene.physics.bind(self.scene.camera)
-        return CameraPose.from_mujoco(b.xpos, b.xmat)
+        """The eye camera's pose now (the scene's forward kinematics), as the projections here take it."""
+        pos, R = self.scene.camera_pose_cv()
+        return CameraPose(R, pos)
 
-    def target_corners_world(self) -> np.ndarray:
-        g = self.scene.physics.bind(self.scene.wall.target)
-        R = g.xmat.reshape(3, 3)
-        return g.xpos + self.scene.wall.corner_offsets() @ R.T
+    def occlusion_counts(self, pose: CameraPose | None = None) -> tuple[int, int]:
+        """(visible, full) pixel counts of the target from ONE segmentation render.
 
-    def target_center_world(self) -> np.ndarray:
-        g = self.scene.physics.bind(self.scene.wall.target)
-        return g.xpos + g.xmat.reshape(3, 3) @ self.scene.wall.corner_offsets()[:, :].mean(axis=0)
+        visible: the target's pixels. full: those plus the pixels of people (geom group OCCLUDER_GROUP)
+        inside the target's projected outline, rasterised at 1/16 px. Only where a person's outline crosses
+        the target's edge can a pixel be counted differently from a second render with the people hidden
+        (test_render: within 0.01 of occlusion); with no person on the target the two agree exactly.
+        """
+        pose = self.camera_pose() if pose is None else pose
+        ids, types = self._segment()
+        is_geom = types == int(mujoco.mjtObj.mjOBJ_GEOM)
+        visible = int(np.count_nonzero((ids == self._target_id) & is_geom))
+        if not self.scene.people:
+            return visible, visible
+        uv = project(self.K, pose, self.scene.target_corners_world())  # the undistorted view, as the render
+        if not np.all(np.isfinite(uv)):
+            return visible, visible
+        x0, y0 = np.clip(np.floor(uv.min(axis=0)).astype(int) - 1, 0, [self.width, self.height])
+        x1, y1 = np.clip(np.ceil(uv.max(axis=0)).astype(int) + 2, 0, [self.width, self.height])
+        if x1 <= x0 or y1 <= y0:
+            return visible, visible
+        outline = np.zeros((y1 - y0, x1 - x0), np.uint8)
+        cv2.fillPoly(outline, [np.round((uv - [x0, y0]) * OUTLINE_SUBPIXEL).astype(np.int32)], 1,
+                     lineType=cv2.LINE_8, shift=OUTLINE_SHIFT)
+        box = (slice(y0, y1), slice(x0, x1))
+        person = self._occluder_geom[np.clip(ids[box], 0, len(self._occluder_geom) - 1)] & is_geom[box] & (ids[box] >= 0)
+        return visible, visible + int(np.count_nonzero(person & (outline > 0)))
 
     def ground_truth(self, occlusion: bool = True) -> GroundTruth:
-        """Projected target geometry and (if asked) the occlusion from two segmentation renders."""
+        """Projected target geometry and (if asked) the occlusion from one segmentation render
+        (`occlusion_counts`). Without occlusion it renders nothing: geometry only, occlusion NaN."""
         pose = self.camera_pose()
-        corners = self.project(pose, self.target_corners_world())
-        centre_w = self.target_center_world()
+        corners_w = self.scene.target_corners_world()
+        corners = self.project(pose, corners_w)
+        centre_w = corners_w.mean(axis=0)
         center = self.project(pose, centre_w)[0]
         visible = full = 0
         occ = float("nan")
         if occlusion:
-            visible = int(self.target_mask().sum())
-            full = visible if not self.scene.people else int(self._target_mask(hide_people=True).sum())
+            visible, full = self.occlusion_counts(pose)
             occ = 1.0 - visible / full if full > 0 else 1.0
         return GroundTruth(
             frame=self.scene.frame_index, time=self.scene.time, center=center, corners=corners,

@@ -27,6 +27,13 @@ OCCLUDER_KINDS = ("walk", "pause", "hover")
 PEOPLE_STYLES = PERSON_STYLES  # how people look: clothed and textured, or the original flat figures
 
 
+MULTISAMPLE_CHOICES = (0, 2, 4, 8)
+# off: on the tracking target set (experiments/bench_multisample.py) 4× multisampling moved the hybrid's
+# ≤ 2 px share by −0.3 (ideal) and +0.6 points (phone_handheld), within the spread of seeds, and cost 1.7–3×
+# the render time (README, *Render settings*)
+DEFAULT_MULTISAMPLE = 0
+
+
 @dataclass(frozen=True)
 class CameraConfig:
     """Wrist / hand-held camera: image size in pixels, vertical field of view in degrees, and what its
@@ -36,8 +43,15 @@ class CameraConfig:
     height: int = 480
     fovy: float = 45.0
     sensor: SensorModel | str = field(default_factory=SensorModel)
+    # MuJoCo's off-screen multisampling (visual/quality/offsamples), samples per pixel: anti-aliased
+    # geometry edges at about twice the render time of a 640×480 frame
+    multisample: int = DEFAULT_MULTISAMPLE
 
     def __post_init__(self):
+        ms = self.multisample
+        if isinstance(ms, bool) or not isinstance(ms, (int, np.integer)) or ms not in MULTISAMPLE_CHOICES:
+            raise ConfigError(f"camera multisample must be one of {', '.join(map(str, MULTISAMPLE_CHOICES))} "
+                              f"(samples per pixel; 0 = off), got {self.multisample!r}")
         for name in ("width", "height"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 64 <= v <= 4096:

@@ -49,6 +49,7 @@ class Scene:
         root.visual.map.znear = 0.005
         root.visual.map.zfar = 10.0
         root.visual.quality.shadowsize = 2048 if scenario.shadows else 0
+        root.visual.quality.offsamples = cam.multisample
         root.visual.headlight.ambient = [0.35, 0.35, 0.35]
         root.visual.headlight.diffuse = [0.35, 0.35, 0.35]
         root.visual.headlight.specular = [0.05, 0.05, 0.05]
@@ -115,6 +116,15 @@ class Scene:
         """The camera's world position and OpenCV-convention rotation now (from the simulator)."""
         b = self.physics.bind(self.camera)
         return b.xpos.copy(), mujoco_to_opencv(b.xmat)
+
+    def target_corners_world(self) -> np.ndarray:
+        """World positions (4, 3) of the target's front-face corners now: TL, TR, BR, BL as the camera sees them."""
+        g = self.physics.bind(self.wall.target)
+        return g.xpos + self.wall.corner_offsets() @ g.xmat.reshape(3, 3).T
+
+    def target_center_world(self) -> np.ndarray:
+        """World position of the centre of the target's front face now."""
+        return self.target_corners_world().mean(axis=0)
 
     def target_position(self) -> np.ndarray:
         """World position of the target board's centre now (it may move: wall_motion)."""

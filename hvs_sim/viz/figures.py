@@ -138,33 +138,30 @@ def _overlay(r) -> np.ndarray:
         if np.all(np.isfinite(pts)):
             cv2.polylines(img, [np.round(pts * 16).astype(np.int32)], True, col, width, cv2.LINE_AA, shift=4)
     img = cv2.resize(img, (480, 360), interpolation=cv2.INTER_AREA)
-    label = f"t={r.time:.2f}s {r.mode} occl. {r.occlusion:.0%} err {r.error_px:.2f}px"
+    occl = "" if np.isnan(r.occlusion) else f" occl. {r.occlusion:.0%}"
+    label = f"t={r.time:.2f}s {r.mode}{occl} err {r.error_px:.2f}px"
     cv2.rectangle(img, (0, 0), (480, 30), (0, 0, 0), -1)
     cv2.putText(img, label, (8, 21), cv2.FONT_HERSHEY_SIMPLEX, 0.55, (255, 255, 255), 1, cv2.LINE_AA)
     return img
 
 
-def run_figures(records: list, summary: dict, out: Path, converge_px: float = 0.5) -> list[Path]:
-    """Beside a closed-loop run: `frames.png` (start, occlusion rising, peak occlusion, end, with the
-    tracked / true / desired outlines) and `error.png` (errors over time, predicted steps and true
-    occlusion shaded). Records must keep their frames (run_episode(keep_records=True))."""
+def run_figures(picks: list, series: dict, summary: dict, out: Path, converge_px: float = 0.5) -> list[Path]:
+    """Beside a closed-loop run: `frames.png` (the four picked records with their frames: start, occlusion
+    rising, peak occlusion, end (runner.FramePicks), with the tracked / true / desired outlines) and
+    `error.png` (errors over time from RunStats.series, predicted steps and true occlusion shaded)."""
     import cv2
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    occ = np.array([r.occlusion for r in records])
-    picks = [0, int(np.argmax(occ > 0.3)), int(np.argmax(occ)), len(records) - 1]
-    tiles = [_overlay(records[i]) for i in picks]
+    tiles = [_overlay(r) for r in picks]
     frames = out / "frames.png"
     cv2.imwrite(str(frames), np.vstack([np.hstack(tiles[:2]), np.hstack(tiles[2:])]))
-    t = np.array([r.time for r in records])
+    t, occ = series["time"], np.nan_to_num(series["occlusion"])
     fig, ax = plt.subplots(figsize=(9, 3.6))
-    ax.semilogy(t, np.maximum([r.error_px for r in records], 1e-3), color="tab:red",
-                label="ground-truth error to s* (px)")
-    ax.semilogy(t, [max(r.tracker_error_px, 1e-3) for r in records], color="tab:green",
-                label="tracker corner error (px)")
+    ax.semilogy(t, np.maximum(series["error_px"], 1e-3), color="tab:red", label="ground-truth error to s* (px)")
+    ax.semilogy(t, np.maximum(series["tracker_error_px"], 1e-3), color="tab:green", label="tracker corner error (px)")
     ax.axhline(converge_px, ls="--", color="k", lw=0.8, label=f"converged below {converge_px:g} px")
-    pred = np.array([r.mode == "predict" for r in records])
+    pred = series["predict"]
     ax.fill_between(t, 1e-3, 1e3, where=pred, color="tab:blue", alpha=0.15, step="mid",
                     label="predicted (scene motion / GRU)")
     tw = ax.twinx()

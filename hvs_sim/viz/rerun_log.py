@@ -31,6 +31,8 @@ log = logging.getLogger(__name__)
 MODE_CODE = {"align": 0, "predict": 1, "lost": 2, "fault": 3}
 RERUN_PIXEL_OFFSET = 0.5  # hvs_sim pixel (OpenCV, centres at integers) → rerun image space (centres at +0.5)
 TWIST = ("vx", "vy", "vz", "wx", "wy", "wz")
+PATH_STEP_M = 0.001  # the drawn camera path gains a point when the camera has moved this far ...
+PATH_MAX_POINTS = 2000  # ... and is thinned to half when it has more points than this
 
 
 def _quat_xyzw(R: np.ndarray) -> list[float]:
@@ -149,6 +151,17 @@ class RerunLogger:
         rec.log("plots/condition_L", rr.SeriesLines(names="condition number of L"), static=True)
         rec.log("plots/rank_L", rr.SeriesLines(names="rank of L"), static=True)
 
+    def _extend_path(self, t: np.ndarray) -> bool:
+        """Add the camera centre to the drawn path when it has moved PATH_STEP_M; at PATH_MAX_POINTS
+        every other point is dropped, so a long run's path costs bounded memory and logging time.
+        Whether the path changed (and is logged again)."""
+        if self.path and np.linalg.norm(t - self.path[-1]) < PATH_STEP_M:
+            return False
+        self.path.append(np.array(t, float))
+        if len(self.path) > PATH_MAX_POINTS:
+            self.path = self.path[:-1:2] + self.path[-1:]
+        return True
+
     def log_step(self, r: StepRecord) -> None:
         self._guard(self._step, r)
 
@@ -157,8 +170,8 @@ class RerunLogger:
         rec.set_time("step", sequence=r.step)
         rec.set_time("sim_time", duration=r.time)
         rec.log("world/camera", rr.Transform3D(translation=r.camera.t, mat3x3=r.camera.R))
-        self.path.append(r.camera.t.copy())
-        rec.log("world/trajectory", rr.LineStrips3D([np.array(self.path)], colors=[80, 140, 255]))
+        if self._extend_path(r.camera.t):
+            rec.log("world/trajectory", rr.LineStrips3D([np.array(self.path)], colors=[80, 140, 255]))
         if r.frame is not None:
             rec.log("world/camera/image", rr.Image(r.frame).compress(jpeg_quality=85))
         closed = lambda p: [np.vstack([p, p[:1]])]
@@ -185,7 +198,8 @@ class RerunLogger:
         if r.condition is not None:
             rec.log("plots/condition_L", rr.Scalars(r.condition))
             rec.log("plots/rank_L", rr.Scalars(r.rank))
-        rec.log("plots/occlusion", rr.Scalars(r.occlusion))
+        if np.isfinite(r.occlusion):  # NaN: not evaluated (LoopConfig.evaluate=False)
+            rec.log("plots/occlusion", rr.Scalars(r.occlusion))
         rec.log("plots/mode", rr.Scalars(MODE_CODE.get(r.mode, 3)))
         for name, v in zip(TWIST, r.twist):
             rec.log(f"plots/twist/{name}", rr.Scalars(v))

@@ -1,0 +1,126 @@
+"""The real-time loop's parts: a loop without evaluation renders, one arm driver, flat memory, render settings."""
+
+import gc
+import tracemalloc
+
+import numpy as np
+import pytest
+
+from hvs_sim.control.arm import ArmDriver, camera_twist_to_world, twist_to_joint_velocities
+from hvs_sim.loop import LoopConfig, ServoLoop, summarize_run
+from hvs_sim.render.renderer import Renderer
+from hvs_sim.runner import run_episode
+from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+from hvs_sim.scene.world import Scene
+
+SMALL = CameraConfig(width=320, height=240)
+
+
+def test_loop_without_evaluation_never_renders_it_and_servoes_the_same(monkeypatch):
+    """evaluate=False: no segmentation render at all, and the arm moves exactly as with evaluation on
+    (control reads none of it), converging from the demo's start (walk_by's default offset)."""
+    sc = make_scenario("walk_by", mount="arm", camera=SMALL)
+    cfg = LoopConfig(steps=100, keep_frames=False)
+    with_eval = list(ServoLoop(sc, "deep_lk", cfg))
+    assert any(r.occlusion > 0.1 for r in with_eval)  # the person did cross: the evaluation had something to see
+
+    def no_render(*args, **kwargs):
+        raise AssertionError("an evaluation render was made with evaluate=False")
+
+    monkeypatch.setattr(Renderer, "_segment", no_render)
+    no_eval_cfg = LoopConfig(steps=100, keep_frames=False, evaluate=False)
+    without = list(ServoLoop(sc, "deep_lk", no_eval_cfg))
+    assert all(np.isnan(r.occlusion) for r in without)
+    for a, b in zip(with_eval, without):
+        assert np.array_equal(a.twist, b.twist) and np.array_equal(a.features, b.features) and np.array_equal(a.q, b.q)
+    s_eval, s_none = summarize_run(with_eval, cfg), summarize_run(without, no_eval_cfg)
+    assert s_eval["converged"] and s_none["converged"]
+    assert s_none["steps_to_converge"] == s_eval["steps_to_converge"]
+    assert s_none["evaluated"] is False and s_none["occluded_steps"] is None
+    assert s_none["max_error_px_during_occlusion"] is None and s_eval["occluded_steps"] > 0
+
+
+def test_one_arm_driver_serves_the_loop_the_env_and_the_training_data(monkeypatch):
+    calls = []
+    command = ArmDriver.command
+
+    def counting(self, twist):
+        calls.append(len(calls))
+        return command(self, twist)
+
+    monkeypatch.setattr(ArmDriver, "command", counting)
+    list(ServoLoop(make_scenario("clear", mount="arm", camera=SMALL), "ground_truth", LoopConfig(steps=3, keep_frames=False)))
+    assert len(calls) == 3
+    import gymnasium as gym
+
+    import hvs_sim  # noqa: F401  (registers the environment)
+
+    env = gym.make("hvs_sim/VisualServo-v0")
+    env.reset(seed=0)
+    env.step(np.zeros(6, np.float32))
+    assert len(calls) == 4
+    from hvs_sim.learn.data import arm_track
+
+    arm_track(1000, 2)
+    assert len(calls) == 6
+
+
+def test_arm_driver_uses_forward_kinematics_and_reproduces_the_twist():
+    scene = Scene(make_scenario("clear", mount="arm", camera=SMALL, start_offset=(0.02, -0.01, 0.03, 0.1)))
+    driver = ArmDriver(scene, damping=1e-3)
+    twist = np.array([0.01, -0.02, 0.015, 0.02, -0.03, 0.05])
+    cmd = driver.command(twist)
+    _, R = scene.camera_pose_cv()
+    assert np.allclose(scene.camera_jacobian() @ cmd.qdot, camera_twist_to_world(R, twist), atol=1e-4)
+    ref = twist_to_joint_velocities(scene.camera_jacobian(), camera_twist_to_world(Renderer(scene).camera_pose().R, twist),
+                                    scene.joint_positions, driver.limits)
+    assert np.array_equal(cmd.qdot, ref.qdot)
+    before = scene.pose_error()
+    scene.advance(cmd.qdot)
+    moved = scene.pose_error() - before
+    # the camera moved along the commanded twist: the translation in the camera frame has its sign pattern
+    assert np.all(np.sign(moved[:3]) == np.sign(twist[:3]))
+
+
+def test_memory_of_a_run_does_not_grow_with_its_steps(tmp_path, monkeypatch):
+    """Python memory (numpy arrays included) in use while a run goes, at step 100 and at step 600: the same,
+    within 100 bytes a step (the summary's per-step arrays are sized when the run starts; no records,
+    frames or CSV rows are held). Keeping the records, as before, grew ~4 kB a step."""
+    from hvs_sim.loop import RunStats
+
+    used = {}
+    add = RunStats.add
+
+    def measured(self, r):
+        add(self, r)
+        if self.n in (100, 600):
+            gc.collect()  # what reference cycles hold until the collector runs is not growth
+            used[self.n] = tracemalloc.get_traced_memory()[0]
+
+    monkeypatch.setattr(RunStats, "add", measured)
+    tracemalloc.start()
+    try:
+        run_episode(make_scenario("walk_by", mount="arm", camera=CameraConfig(width=160, height=120)), "ground_truth",
+                    LoopConfig(steps=600, keep_frames=False), progress=False, json_path=str(tmp_path / "run.json"))
+    finally:
+        tracemalloc.stop()
+    assert used[600] - used[100] < 100 * 500, used
+    rows = (tmp_path / "run_steps.csv").read_text().splitlines()
+    assert len(rows) == 601  # every step was written as it came
+
+
+def test_multisample_is_a_camera_setting_that_reaches_the_renderer():
+    on = Scene(make_scenario("clear", mount="arm", camera=CameraConfig(width=160, height=120, multisample=4)))
+    off = Scene(make_scenario("clear", mount="arm", camera=CameraConfig(width=160, height=120, multisample=0)))
+    assert on.physics.model.vis.quality.offsamples == 4 and off.physics.model.vis.quality.offsamples == 0
+    a, b = Renderer(on).rgb().astype(int), Renderer(off).rgb().astype(int)
+    # anti-aliasing changes edge pixels only: the images agree on average, not pixel for pixel
+    assert np.abs(a - b).mean() < 3.0 and (np.abs(a - b).max(axis=2) > 20).sum() > 50
+
+
+@pytest.mark.parametrize("bad", [1, 3, 16, "4", 4.0])
+def test_bad_multisample_is_refused(bad):
+    from hvs_sim.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="multisample"):
+        CameraConfig(multisample=bad)
