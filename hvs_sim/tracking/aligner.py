@@ -14,6 +14,7 @@ The public API (used by the trackers and by `learn/data.py` alike):
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import cv2
@@ -143,6 +144,12 @@ class Aligner:
         s = config.scale
         self.S = np.array([[s, 0, 0.5 * s - 0.5], [0, s, 0.5 * s - 0.5], [0, 0, 1.0]])  # full → work pixels
         self.S_inv = np.linalg.inv(self.S)
+        # wall ms of the stages of the current frame (VGG "features", feature "lk", ECC "refine");
+        # trackers clear it per frame and report it (HybridTracker.stage_ms): two clock reads a stage
+        self.stage_ms: dict[str, float] = {}
+
+    def _timed(self, stage: str, t0: float) -> None:
+        self.stage_ms[stage] = self.stage_ms.get(stage, 0.0) + 1e3 * (time.perf_counter() - t0)
 
     # ----------------------------------------------------------------- images and frames
 
@@ -158,10 +165,13 @@ class Aligner:
         return frame if s == 1.0 else cv2.resize(frame, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
 
     def features(self, work: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> dict[str, torch.Tensor]:
+        t0 = time.perf_counter()
         crop = np.ascontiguousarray(work[y0:y1, x0:x1], np.float32)
         with torch.inference_mode():
             out = self.net(torch.from_numpy(crop)[None, None].to(self.device), levels=self.config.lk.levels)
-        return {k: v[0].float().cpu() for k, v in out.items()}
+        feats = {k: v[0].float().cpu() for k, v in out.items()}
+        self._timed("features", t0)
+        return feats
 
     def crop_box(self, corners_work: np.ndarray, shape) -> tuple[int, int, int, int]:
         m = self.config.margin
@@ -247,9 +257,10 @@ class Aligner:
         """
         A_prev = self.to_work(A)
         rectified = self.rectified_template(A)
-        matches = [(self.matcher.match(work, rectified), A_prev)]
+        search = self.matcher.prepare(work)  # shared by both searches
+        matches = [(self.matcher.match(search, rectified), A_prev)]
         if rectified is not self.template:  # also the template as taken, in case θ, s went wrong
-            matches.append((self.matcher.match(work, self.template), np.eye(3)))
+            matches.append((self.matcher.match(search, self.template), np.eye(3)))
         m = max(matches, key=lambda mk: mk[0].score)[0]
         c_prev = apply(A_prev, self.c_work[None])[0]
         seeds = []
@@ -280,7 +291,9 @@ class Aligner:
             return None
         feats = self.features(work, x0, y0, x1, y1)
         origin = np.array([x0, y0], float)
+        t0 = time.perf_counter()
         res = self.lk_engine.align(feats, origin, (y1 - y0, x1 - x0), self.N @ A_work @ self.N_inv)
+        self._timed("lk", t0)
         return LKOutput(res, feats, origin)
 
     def residual_inputs(self, feats, origin, M) -> tuple[torch.Tensor, torch.Tensor]:
@@ -337,7 +350,9 @@ class Aligner:
                 res.M = M_ref
         A_new = self.N_inv @ res.M @ self.N
         if self.config.warp == "homography" and self.config.refine_intensity and np.all(np.isfinite(A_new)):
+            t0 = time.perf_counter()
             A_ecc = self.refine_intensity(A_new)
+            self._timed("refine", t0)
             # kept only near LK's answer: ECC has no robust weights, an occluder can pull it away
             if A_ecc is not None and np.abs(apply(A_ecc, self.t_corners) - apply(A_new, self.t_corners)).max() <= \
                     INTENSITY_REFINE_MAX_PX:

@@ -7,7 +7,7 @@ fraction of the cost of a full-resolution search. The peak score is the match co
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -22,6 +22,26 @@ class Match:
     # best NCC away from the peak (further than the template's smaller side, on the coarse
     # search): how unique the match is; a self-similar texture (fur, gravel) has second ≈ score
     second: float = -1.0
+
+
+@dataclass
+class SearchImage:
+    """A grey frame prepared once for several searches in it (the hybrid searches with the rectified
+    template and with the template as taken): its spread and its coarse copy are computed once."""
+
+    grey: np.ndarray
+    std: float
+    small: dict[int, np.ndarray] = field(default_factory=dict)  # coarse factor → resized frame
+
+    def coarse(self, f: int) -> np.ndarray:
+        if f not in self.small:
+            self.small[f] = cv2.resize(self.grey, None, fx=1 / f, fy=1 / f, interpolation=cv2.INTER_AREA)
+        return self.small[f]
+
+
+def _std(image: np.ndarray) -> float:
+    """Population standard deviation (cv2.meanStdDev: one pass, no float64 copy as np.std makes)."""
+    return float(cv2.meanStdDev(image)[1][0, 0])
 
 
 def _subpixel(resp: np.ndarray, x: int, y: int) -> tuple[float, float]:
@@ -50,13 +70,19 @@ class GlobalMatcher:
             raise ConfigError(f"coarse factor must be 1, 2 or 4, got {coarse}")
         self.coarse, self.window = coarse, window
 
-    def match(self, grey: np.ndarray, template: np.ndarray) -> Match:
+    def prepare(self, grey: np.ndarray) -> SearchImage:
+        """`grey` ready for several `match` calls (each reuses its spread and coarse copy)."""
+        return SearchImage(grey, _std(grey))
+
+    def match(self, grey: np.ndarray | SearchImage, template: np.ndarray) -> Match:
+        search = grey if isinstance(grey, SearchImage) else self.prepare(grey)
+        grey = search.grey
         th, tw = template.shape
-        if template.std() < 1e-3 or grey.std() < 1e-3:
+        if _std(template) < 1e-3 or search.std < 1e-3:
             return Match(center=np.array([np.nan, np.nan]), score=0.0)
         f = self.coarse
         if f > 1 and min(th, tw) // f >= 8:
-            small = cv2.resize(grey, None, fx=1 / f, fy=1 / f, interpolation=cv2.INTER_AREA)
+            small = search.coarse(f)
             tsmall = cv2.resize(template, None, fx=1 / f, fy=1 / f, interpolation=cv2.INTER_AREA)
             resp = np.nan_to_num(cv2.matchTemplate(small, tsmall, cv2.TM_CCOEFF_NORMED), nan=-1.0)
             _, _, _, (x, y) = cv2.minMaxLoc(resp)

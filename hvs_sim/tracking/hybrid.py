@@ -35,6 +35,7 @@ the estimate stops moving until re-acquisition.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -186,6 +187,10 @@ class HybridTracker(Tracker):
             self.sources.append(SceneMotionSource(self.aligner, config.background_config, config.background_gate_px))
         self.sources.append(PredictorSource(predictor, config.max_predict_frames))
         self.state: HybridState | None = None
+        # wall ms per stage of the last update (STAGES; the benchmark reads it): "prepare" (grey and
+        # working images), "coarse" (global match and OP_t of the seeds), "occlusion" (colour OP_t),
+        # "features" (VGG), "lk", "refine" (ECC, homography), "sources" (the predict path)
+        self.stage_ms: dict[str, float] = {}
 
     def _init(self, frame, roi) -> None:
         al = self.aligner
@@ -231,10 +236,16 @@ class HybridTracker(Tracker):
 
     def _update(self, frame) -> Estimate:
         al, st = self.aligner, self.state
+        al.stage_ms = self.stage_ms = {}
         st.frame_index += 1
+        t0 = time.perf_counter()
         work = al.work_image(frame)
+        t1 = time.perf_counter()
         m, A_seed, occ, is_current = al.coarse(work, st.A)
+        t2 = time.perf_counter()
         occ = self._occlusion_at(frame, A_seed, occ)
+        t3 = time.perf_counter()
+        self.stage_ms.update(prepare=1e3 * (t1 - t0), coarse=1e3 * (t2 - t1), occlusion=1e3 * (t3 - t2))
         if m.score <= 0:  # blank or uniform frame
             occ = 1.0
         confident = m.score >= self.config.match_threshold or (self.hconfig.continuity and is_current)
@@ -245,6 +256,14 @@ class HybridTracker(Tracker):
                 return Estimate(st.A, Mode.ALIGN, occ, m.score)
         else:
             st.jump_seen(None, 0.0)
+        t4 = time.perf_counter()
+        est = self._predict(work, occ, m)
+        self.stage_ms["sources"] = 1e3 * (time.perf_counter() - t4)
+        return est
+
+    def _predict(self, work: np.ndarray, occ: float, m) -> Estimate:
+        """The first motion source with a proposal moves the estimate (module docstring)."""
+        st = self.state
         for source in self.sources:
             proposal = source.propose(work, st)
             if proposal is None:

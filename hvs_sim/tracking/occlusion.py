@@ -26,6 +26,21 @@ GAIN_RANGE = (0.5, 2.0)  # exposure gains the normalisation may explain
 GAIN_MIN_LEVEL = 20  # template pixels darker than this carry too little signal to measure a gain ratio
 GAIN_BIN = 0.04  # log-ratio histogram bin (4 % in gain)
 MIN_SUPPORT = 0.5  # share of pixels that must agree with the gain for it to be trusted
+_LOG_LO, _LOG_HI = np.log(GAIN_RANGE)
+_N_BINS = max(1, int(np.ceil((_LOG_HI - _LOG_LO) / GAIN_BIN)))
+_EDGES = np.linspace(_LOG_LO, _LOG_HI, _N_BINS + 1)  # the edges np.histogram(bins=_N_BINS, range=…) uses
+
+
+def _log_ratio_counts(r: np.ndarray) -> np.ndarray:
+    """np.histogram(r, bins=_N_BINS, range=(_LOG_LO, _LOG_HI))[0] for r inside that range, without its
+    generic-path overhead (a third of exposure_gain's time): a first guess of each bin, then the same
+    correction against the edges that np.histogram makes, so every count is the same."""
+    x = r.astype(np.float64)
+    idx = ((x - _LOG_LO) * (_N_BINS / (_LOG_HI - _LOG_LO))).astype(np.intp)
+    np.clip(idx, 0, _N_BINS - 1, out=idx)
+    idx -= x < _EDGES[idx]
+    idx += (x >= _EDGES[idx + 1]) & (idx != _N_BINS - 1)
+    return np.bincount(idx, minlength=_N_BINS)
 
 
 def aligned_patch(grey: np.ndarray, A: np.ndarray, origin: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
@@ -50,17 +65,15 @@ def exposure_gain(patch: np.ndarray, template: np.ndarray, inside: np.ndarray | 
     use = t > GAIN_MIN_LEVEL
     if inside is not None:
         use &= inside[..., None] if use.ndim == 3 else inside
-    if use.sum() < 16:
+    if np.count_nonzero(use) < 16:
         return 1.0
-    lo, hi = np.log(GAIN_RANGE)
     r = np.log(np.maximum(p[use], 0.5) / t[use])
-    r = r[(r >= lo) & (r <= hi)]
+    r = r[(r >= _LOG_LO) & (r <= _LOG_HI)]
     if r.size < 16:
         return 1.0
-    hist, edges = np.histogram(r, bins=max(1, int(np.ceil((hi - lo) / GAIN_BIN))), range=(lo, hi))
-    hist = np.convolve(hist, np.ones(3), mode="same")  # a ratio on a bin edge counts for both sides
+    hist = np.convolve(_log_ratio_counts(r), np.ones(3), mode="same")  # a ratio on a bin edge counts for both sides
     k = int(np.argmax(hist))
-    near = r[np.abs(r - 0.5 * (edges[k] + edges[k + 1])) <= 1.5 * GAIN_BIN]
+    near = r[np.abs(r - 0.5 * (_EDGES[k] + _EDGES[k + 1])) <= 1.5 * GAIN_BIN]
     return float(np.exp(np.median(near))) if near.size else 1.0
 
 

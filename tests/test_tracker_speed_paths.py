@@ -1,0 +1,223 @@
+"""The hybrid's fast paths compute what the slower code they replaced computed.
+
+numpy feature LK against a torch reference of the Gauss–Newton loop (grid_sample, steepest-descent
+images), the histogram of exposure_gain against np.histogram, the search image shared by two global
+matches against two plain matches, the fused conv + ReLU against eager layers; and the hybrid as a
+whole stays deterministic. Images are synthetic (smoothed noise), so nothing depends on sample data.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+import torch
+
+from hvs_sim.errors import ConfigError
+from hvs_sim.tracking import make_tracker
+from hvs_sim.tracking.aligner import Aligner, DeepLKConfig
+from hvs_sim.tracking.feature_lk import (
+    HUBER_K,
+    MAD_TO_SIGMA,
+    LKConfig,
+    bilinear_rows,
+    sample_points,
+    update_matrix,
+)
+from hvs_sim.tracking.global_match import GlobalMatcher
+from hvs_sim.tracking.nets.vgg import vgg16_pool2
+from hvs_sim.tracking.occlusion import GAIN_BIN, GAIN_MIN_LEVEL, GAIN_RANGE, _log_ratio_counts, exposure_gain
+from hvs_sim.tracking.warp import apply, pose_to_matrix
+
+ROI = (120, 90, 96, 64)
+
+
+def texture(seed: int, shape=(240, 320)) -> np.ndarray:
+    """Smoothed colour noise: texture at several scales, uint8 RGB."""
+    rng = np.random.default_rng(seed)
+    img = np.zeros((*shape, 3), np.float32)
+    for sigma, amp in ((1.0, 40.0), (3.0, 60.0), (8.0, 80.0)):
+        img += amp * cv2.GaussianBlur(rng.standard_normal((*shape, 3)).astype(np.float32), (0, 0), sigma)
+    return np.clip(128 + img, 0, 255).astype(np.uint8)
+
+
+def moved(img: np.ndarray, pose, center) -> np.ndarray:
+    A = pose_to_matrix(pose, center)
+    return cv2.warpAffine(img, A[:2], (img.shape[1], img.shape[0]), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+
+
+def test_numpy_bilinear_matches_grid_sample_inside_and_at_the_border():
+    rng = np.random.default_rng(0)
+    fmap = torch.from_numpy(rng.random((16, 11, 13), dtype=np.float32))
+    pts = np.c_[rng.uniform(-2, 15, 500), rng.uniform(-2, 13, 500)]  # some beyond the map: border padding
+    ref, u = sample_points(fmap, pts, np.zeros(2), 1)
+    ours = bilinear_rows(np.ascontiguousarray(fmap.permute(1, 2, 0).numpy()), u[:, 0].copy(), u[:, 1].copy())
+    assert np.abs(ours - ref.numpy()).max() < 1e-5
+
+
+def _reference_align(lk, feats, origin, crop_shape, M0, eps):
+    """The IC-LK loop as it was in torch (grid_sample, (N·C × P) steepest-descent product), with the
+    paper's stopping rule: the numpy loop must land on the same warp."""
+    M, P = M0.copy(), lk.n_params
+    H_crop, W_crop = crop_shape
+    lo = origin + lk.config.border
+    hi = origin + np.array([W_crop - 1, H_crop - 1]) - lk.config.border
+    for level, iters in zip(lk.levels, lk.config.iterations):
+        fmap = feats[level.name]
+        for _ in range(iters):
+            pts = lk.to_work(M, level.pts)
+            valid = (pts[:, 0] >= lo[0]) & (pts[:, 0] <= hi[0]) & (pts[:, 1] >= lo[1]) & (pts[:, 1] <= hi[1])
+            sampled, _ = sample_points(fmap, pts[valid], origin, level.stride)
+            err = sampled - level.feats[valid]
+            r = torch.linalg.vector_norm(err, dim=1).double().numpy()
+            k = HUBER_K * max(MAD_TO_SIGMA * np.median(r), 1e-6)
+            w = np.where(r <= k, 1.0, k / np.maximum(r, 1e-12))
+            sd = level.sd.view(-1, err.shape[1], P)[torch.from_numpy(valid)].reshape(-1, P)
+            b = ((err * torch.from_numpy(w).float()[:, None]).reshape(1, -1) @ sd)[0].double().numpy()
+            H = (w @ level.hess[valid]).reshape(P, P)
+            dp = np.linalg.solve(H, b)
+            M = M @ np.linalg.inv(update_matrix(dp, lk.warp))
+            M = M / M[2, 2]
+            if lk.update_size(dp) < eps * level.stride:
+                break
+    return M
+
+
+@pytest.mark.parametrize("warp", ["similarity", "homography"])
+def test_numpy_feature_lk_lands_where_the_torch_loop_does(warp):
+    img = texture(1)
+    al = Aligner(DeepLKConfig(warp=warp, lk=LKConfig(coarse_eps=None)))  # the paper's stopping rule
+    work = al.set_template(img, ROI)
+    lk = al.lk_engine
+    for pose in ((1.3, -0.8, 0.02, 1.01), (-2.5, 1.7, -0.04, 0.97)):
+        frame = al.work_image(moved(img, pose, al.center0))
+        A_work = np.eye(3)
+        x0, y0, x1, y1 = al.crop_box(apply(A_work, al.t_corners), work.shape)
+        feats = al.features(frame, x0, y0, x1, y1)
+        origin = np.array([x0, y0], float)
+        M0 = al.N @ A_work @ al.N_inv
+        ours = lk.align(feats, origin, (y1 - y0, x1 - x0), M0).M
+        ref = _reference_align(lk, feats, origin, (y1 - y0, x1 - x0), M0, lk.config.eps)
+        box = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+        assert np.abs(al.rho * (apply(ours, box) - apply(ref, box))).max() < 1e-3  # work px
+
+
+def test_coarse_level_stopping_rule_moves_the_answer_by_less_than_a_thousandth_of_a_pixel():
+    img = texture(2)
+    answers = []
+    for coarse_eps in (None, LKConfig().coarse_eps):
+        al = Aligner(DeepLKConfig(lk=LKConfig(coarse_eps=coarse_eps)))
+        al.set_template(img, ROI)
+        frame = al.work_image(moved(img, (1.7, 1.1, 0.03, 1.02), al.center0))
+        out = al.align(frame, np.eye(3))
+        answers.append(apply(al.to_full(out.A_work), al.center0[None])[0])
+    assert np.abs(answers[0] - answers[1]).max() < 2e-3  # full-resolution px
+
+
+def test_predicted_stop_ends_no_later_and_lands_within_a_hundredth_of_a_pixel():
+    img = texture(3)
+    runs = []
+    for predict_stop in (False, True):
+        al = Aligner(DeepLKConfig(lk=LKConfig(predict_stop=predict_stop)))
+        al.set_template(img, ROI)
+        frame = al.work_image(moved(img, (-1.2, 2.1, -0.02, 0.99), al.center0))
+        out = al.align(frame, np.eye(3))
+        runs.append((out.lk.result.iterations, apply(al.to_full(out.A_work), al.center0[None])[0]))
+    assert runs[1][0] <= runs[0][0]
+    assert np.abs(runs[1][1] - runs[0][1]).max() < 1e-2
+
+
+def test_lk_config_refuses_a_non_positive_stopping_threshold():
+    with pytest.raises(ConfigError):
+        LKConfig(coarse_eps=0.0)
+    with pytest.raises(ConfigError):
+        LKConfig(eps=-1.0)
+
+
+def _histogram_gain(patch, template, inside):
+    """exposure_gain as written with np.histogram (before the bin counting was made direct)."""
+    t, p = template.astype(np.float32), patch.astype(np.float32)
+    use = (t > GAIN_MIN_LEVEL) & (inside[..., None] if t.ndim == 3 else inside)
+    if use.sum() < 16:
+        return 1.0
+    lo, hi = np.log(GAIN_RANGE)
+    r = np.log(np.maximum(p[use], 0.5) / t[use])
+    r = r[(r >= lo) & (r <= hi)]
+    if r.size < 16:
+        return 1.0
+    hist, edges = np.histogram(r, bins=max(1, int(np.ceil((hi - lo) / GAIN_BIN))), range=(lo, hi))
+    hist = np.convolve(hist, np.ones(3), mode="same")
+    k = int(np.argmax(hist))
+    near = r[np.abs(r - 0.5 * (edges[k] + edges[k + 1])) <= 1.5 * GAIN_BIN]
+    return float(np.exp(np.median(near))) if near.size else 1.0
+
+
+def test_exposure_gain_bins_exactly_as_np_histogram():
+    rng = np.random.default_rng(3)
+    lo, hi = np.log(GAIN_RANGE)
+    n_bins = max(1, int(np.ceil((hi - lo) / GAIN_BIN)))
+    edges = np.linspace(lo, hi, n_bins + 1)
+    for _ in range(50):
+        r = rng.uniform(lo, hi, 2000).astype(np.float32)
+        r[:40] = edges[rng.integers(0, n_bins + 1, 40)].astype(np.float32)  # values on (rounded) edges
+        r = r[(r >= lo) & (r <= hi)]
+        assert np.array_equal(_log_ratio_counts(r), np.histogram(r, bins=n_bins, range=(lo, hi))[0])
+    img = texture(4)
+    template = img[40:100, 60:150]
+    for gain in (0.6, 0.9, 1.0, 1.25, 1.8):
+        for grey in (False, True):
+            patch = np.clip(img[42:102, 61:151] * gain, 0, 255).astype(np.uint8)
+            tpl = template
+            if grey:
+                patch, tpl = cv2.cvtColor(patch, cv2.COLOR_RGB2GRAY), cv2.cvtColor(template, cv2.COLOR_RGB2GRAY)
+            inside = np.ones(patch.shape[:2], bool)
+            inside[:, :10] = False
+            assert exposure_gain(patch, tpl, inside) == _histogram_gain(patch, tpl, inside)
+
+
+def test_shared_search_image_gives_the_same_matches():
+    grey = cv2.cvtColor(texture(5), cv2.COLOR_RGB2GRAY)
+    matcher = GlobalMatcher()
+    search = matcher.prepare(grey)
+    for y, x in ((50, 60), (120, 200)):
+        template = grey[y:y + 40, x:x + 56].copy()
+        a, b = matcher.match(grey, template), matcher.match(search, template)
+        assert np.array_equal(a.center, b.center) and a.score == b.score and a.second == b.second
+    flat = matcher.match(np.full_like(grey, 7), grey[:40, :56].copy())
+    assert flat.score == 0.0 and np.all(np.isnan(flat.center))
+
+
+def test_fused_conv_relu_gives_the_eager_layers_values():
+    net = vgg16_pool2()
+    if not net.fused:
+        pytest.skip("this torch build has no fused oneDNN convolution")
+    x = torch.from_numpy(cv2.cvtColor(texture(6, (48, 64)), cv2.COLOR_RGB2GRAY).astype(np.float32))[None, None]
+    levels = ("pool2", "pool1", "conv1_2")
+    with torch.inference_mode():
+        fused = net(x, levels=levels)
+        net.fused = False
+        try:
+            eager = net(x, levels=levels)
+        finally:
+            net.fused = True
+    for k in levels:
+        assert torch.equal(fused[k], eager[k])
+
+
+@pytest.mark.parametrize("warp", ["similarity", "homography"])
+def test_hybrid_is_deterministic_and_reports_its_stages(warp):
+    img = texture(7)
+    c = np.array([ROI[0] + (ROI[2] - 1) / 2, ROI[1] + (ROI[3] - 1) / 2])
+    frames = [moved(img, (0.7 * k, -0.4 * k, 0.004 * k, 1 + 0.002 * k), c) for k in range(8)]
+    runs = []
+    for _ in range(2):
+        tr = make_tracker("hybrid", warp=warp)
+        tr.init(frames[0], ROI)
+        tracks = [tr.update(f) for f in frames[1:]]
+        runs.append(np.array([t.corners for t in tracks]))
+        assert all(t.mode == "align" for t in tracks)
+        assert {"prepare", "coarse", "occlusion", "features", "lk"} <= set(tr.stage_ms)
+        assert all(v >= 0 for v in tr.stage_ms.values())
+    assert np.array_equal(runs[0], runs[1])
+    truth = apply(pose_to_matrix((0.7 * 7, -0.4 * 7, 0.028, 1.014), c), c[None])[0]
+    assert np.linalg.norm(tracks[-1].center - truth) < 0.3
