@@ -203,7 +203,7 @@ class ServoLoop:
             frame = r.rgb()
             timings["render"] = 1e3 * (time.perf_counter() - t0)
             t0 = time.perf_counter()
-            gt: GroundTruth = r.ground_truth(occlusion=cfg.evaluate)
+            gt: GroundTruth = r.ground_truth(occlusion=cfg.evaluate, counts=False)
             timings["ground_truth"] = 1e3 * (time.perf_counter() - t0)
             if step == 0:
                 flag0 = gt.corners

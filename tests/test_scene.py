@@ -64,6 +64,31 @@ def test_one_render_occlusion_equals_the_two_render_result(name, mount, seed):
     assert occluded >= 3 and checked >= 10  # the comparison saw partly hidden targets, not only clear views
 
 
+@pytest.mark.parametrize("name,mount,seed", [("walk_by", "arm", 0), ("two_people", "handheld", 1), ("partial", "handheld", 2)])
+def test_occlusion_skipped_only_where_nobody_can_cover_the_target(name, mount, seed):
+    """counts=False renders nothing when no person's bounds reach the target's outline: there the two-render
+    occlusion is exactly 0; frames with any occlusion are always rendered and counted."""
+    sc = make_scenario(name, mount=mount, seed=seed)
+    scene = Scene(sc)
+    r = Renderer(scene)
+    skipped = rendered = 0
+    for k in range(sc.n_frames):
+        if k % 3 == 0:
+            fast = r.ground_truth(counts=False)
+            two_render = 1.0 - r.target_mask().sum() / r.target_mask(hide_people=True).sum()
+            if fast.visible_px is None:
+                skipped += 1
+                assert fast.occlusion == 0.0 and two_render == 0.0, k
+            else:
+                rendered += 1
+                assert abs(fast.occlusion - two_render) <= 0.01
+        scene.advance()
+    if name == "partial":  # a person stands beside the target throughout
+        assert rendered > 0
+    else:
+        assert skipped >= 10 and rendered >= 3, (skipped, rendered)
+
+
 def test_ground_truth_without_occlusion_renders_nothing(monkeypatch):
     scene = Scene(make_scenario("walk_by", mount="arm", seed=0))
     r = Renderer(scene)

@@ -21,6 +21,8 @@ from hvs_sim.scene.parts import OCCLUDER_GROUP
 from hvs_sim.scene.world import Scene
 
 PERSON_PROBE_HEIGHTS = (0.5, 1.2, 1.7)  # m above the feet: points whose image motion sets the blur sampling
+CUBE_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+MIN_DEPTH_M = 1e-3  # a person's geom closer to the camera plane than this may cover anything
 OUTLINE_SHIFT = 4  # the target's outline is rasterised with 2^-4 px vertex precision
 OUTLINE_SUBPIXEL = 1 << OUTLINE_SHIFT
 BLUR_PROBE_MARGIN = 0.25  # ... counted while within this fraction of the image size outside the frame
@@ -35,8 +37,8 @@ class GroundTruth:
     center: np.ndarray  # (2,) projected centre of the target flag
     corners: np.ndarray  # (4, 2) TL, TR, BR, BL
     occlusion: float  # share of the target's pixels hidden by people, from segmentation renders
-    visible_px: int
-    full_px: int
+    visible_px: int | None  # None: not counted (ground_truth(counts=False) with nobody over the target)
+    full_px: int | None
     camera: CameraPose
     target_depth: float  # z of the target centre in the camera frame (m)
     joint_positions: np.ndarray
@@ -205,9 +207,33 @@ class Renderer:
         person = self._occluder_geom[np.clip(ids[box], 0, len(self._occluder_geom) - 1)] & is_geom[box] & (ids[box] >= 0)
         return visible, visible + int(np.count_nonzero(person & (outline > 0)))
 
-    def ground_truth(self, occlusion: bool = True) -> GroundTruth:
+    def people_may_cover_target(self, pose: CameraPose) -> bool:
+        """False only when no person's geom can appear over the target in the (undistorted) view: each geom
+        lies in its bounding box (MuJoCo's geom_aabb, posed), whose image is the hull of its projected
+        corners (perspective keeps convex sets convex in front of the camera), and no such hull meets the
+        target's image."""
+        if not self.scene.people:
+            return False
+        m, d = self.scene.physics.model, self.scene.physics.data
+        aabb = np.asarray(m.geom_aabb)[self._occluder_geom]  # (G, 6): centre, half sizes, geom frame
+        local = aabb[:, None, :3] + aabb[:, None, 3:] * CUBE_CORNERS[None]  # (G, 8, 3)
+        xmat = np.asarray(d.geom_xmat)[self._occluder_geom].reshape(-1, 3, 3)
+        world = np.asarray(d.geom_xpos)[self._occluder_geom][:, None, :] + local @ xmat.transpose(0, 2, 1)
+        cam = (world - pose.t) @ pose.R
+        if np.any(cam[..., 2] <= MIN_DEPTH_M):
+            return True  # a box reaches the camera plane: its image is unbounded
+        uv = cam[..., :2] / cam[..., 2:] * [self.K[0, 0], self.K[1, 1]] + [self.K[0, 2], self.K[1, 2]]
+        target = project(self.K, pose, self.scene.target_corners_world())
+        if not np.all(np.isfinite(target)):
+            return True
+        lo, hi = target.min(axis=0) - 1.0, target.max(axis=0) + 1.0
+        return bool(np.any(np.all((uv.max(axis=1) >= lo) & (uv.min(axis=1) <= hi), axis=1)))
+
+    def ground_truth(self, occlusion: bool = True, counts: bool = True) -> GroundTruth:
         """Projected target geometry and (if asked) the occlusion from one segmentation render
-        (`occlusion_counts`). Without occlusion it renders nothing: geometry only, occlusion NaN."""
+        (`occlusion_counts`). Without occlusion it renders nothing: geometry only, occlusion NaN.
+        counts=False (the closed loop needs the fraction only): when no person can be over the target
+        (`people_may_cover_target`) the occlusion is 0 exactly, without rendering, and the pixel counts are None."""
         pose = self.camera_pose()
         corners_w = self.scene.target_corners_world()
         corners = self.project(pose, corners_w)
@@ -215,7 +241,10 @@ class Renderer:
         center = self.project(pose, centre_w)[0]
         visible = full = 0
         occ = float("nan")
-        if occlusion:
+        if occlusion and not counts and not self.people_may_cover_target(pose):
+            visible = full = None
+            occ = 0.0
+        elif occlusion:
             visible, full = self.occlusion_counts(pose)
             occ = 1.0 - visible / full if full > 0 else 1.0
         return GroundTruth(
