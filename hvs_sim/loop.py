@@ -182,8 +182,7 @@ class ServoLoop:
 
     def true_depths(self) -> np.ndarray:
         """Depth (m) of each target corner in the camera frame, from the simulator (IBVSConfig.depth="true")."""
-        pos, R = self.scene.camera_pose_cv()
-        return ((self.scene.target_corners_world() - pos) @ R)[:, 2]
+        return self.renderer.camera_pose().to_camera(self.scene.target_corners_world())[:, 2]
 
     def _pinhole(self, pts: np.ndarray) -> np.ndarray:
         """Image points with the lens distortion taken out, as a calibrated camera would give IBVS its features
@@ -264,7 +263,7 @@ class ServoLoop:
             yield record
 
 
-MODES = ("align", "predict", "lost", "fault")
+MODES = ("align", "predict", "lost", "fault")  # a record's mode, in the order its code (index) is plotted and stored
 
 
 class RunStats:

@@ -128,9 +128,8 @@ class FramePicks:
             return []
         if self.peak is not None and self.peak.occlusion > 0:
             middle = [self.rising or self.start, self.peak]
-        else:
-            middle = [self.thirds.get(k, self.last) for k in sorted(self.thirds)] or [self.start, self.last]
-            middle = (middle + [self.last])[:2]
+        else:  # the thirds of the run; a run cut short of them shows its last step there
+            middle = (([self.thirds[k] for k in sorted(self.thirds)] or [self.start]) + [self.last])[:2]
         return [self.start, *middle, self.last]
 
 

@@ -179,21 +179,24 @@ class Renderer:
         pos, R = self.scene.camera_pose_cv()
         return CameraPose(R, pos)
 
-    def occlusion_counts(self, pose: CameraPose | None = None) -> tuple[int, int]:
-        """(visible, full) pixel counts of the target from ONE segmentation render.
+    def target_outline(self, pose: CameraPose) -> np.ndarray:
+        """The target's corners (4, 2) in the undistorted view the segmentation renders show (NaN behind the camera)."""
+        return project(self.K, pose, self.scene.target_corners_world())
+
+    def occlusion_counts(self, outline_px: np.ndarray) -> tuple[int, int]:
+        """(visible, full) pixel counts of the target from ONE segmentation render; outline_px: `target_outline`.
 
         visible: the target's pixels. full: those plus the pixels of people (geom group OCCLUDER_GROUP)
         inside the target's projected outline, rasterised at 1/16 px. Only where a person's outline crosses
         the target's edge can a pixel be counted differently from a second render with the people hidden
         (test_render: within 0.01 of occlusion); with no person on the target the two agree exactly.
         """
-        pose = self.camera_pose() if pose is None else pose
         ids, types = self._segment()
         is_geom = types == int(mujoco.mjtObj.mjOBJ_GEOM)
         visible = int(np.count_nonzero((ids == self._target_id) & is_geom))
         if not self.scene.people:
             return visible, visible
-        uv = project(self.K, pose, self.scene.target_corners_world())  # the undistorted view, as the render
+        uv = outline_px
         if not np.all(np.isfinite(uv)):
             return visible, visible
         x0, y0 = np.clip(np.floor(uv.min(axis=0)).astype(int) - 1, 0, [self.width, self.height])
@@ -207,11 +210,11 @@ class Renderer:
         person = self._occluder_geom[np.clip(ids[box], 0, len(self._occluder_geom) - 1)] & is_geom[box] & (ids[box] >= 0)
         return visible, visible + int(np.count_nonzero(person & (outline > 0)))
 
-    def people_may_cover_target(self, pose: CameraPose) -> bool:
+    def people_may_cover_target(self, pose: CameraPose, outline_px: np.ndarray) -> bool:
         """False only when no person's geom can appear over the target in the (undistorted) view: each geom
         lies in its bounding box (MuJoCo's geom_aabb, posed), whose image is the hull of its projected
         corners (perspective keeps convex sets convex in front of the camera), and no such hull meets the
-        target's image."""
+        target's image (outline_px: `target_outline`)."""
         if not self.scene.people:
             return False
         m, d = self.scene.physics.model, self.scene.physics.data
@@ -223,10 +226,9 @@ class Renderer:
         if np.any(cam[..., 2] <= MIN_DEPTH_M):
             return True  # a box reaches the camera plane: its image is unbounded
         uv = cam[..., :2] / cam[..., 2:] * [self.K[0, 0], self.K[1, 1]] + [self.K[0, 2], self.K[1, 2]]
-        target = project(self.K, pose, self.scene.target_corners_world())
-        if not np.all(np.isfinite(target)):
+        if not np.all(np.isfinite(outline_px)):
             return True
-        lo, hi = target.min(axis=0) - 1.0, target.max(axis=0) + 1.0
+        lo, hi = outline_px.min(axis=0) - 1.0, outline_px.max(axis=0) + 1.0
         return bool(np.any(np.all((uv.max(axis=1) >= lo) & (uv.min(axis=1) <= hi), axis=1)))
 
     def ground_truth(self, occlusion: bool = True, counts: bool = True) -> GroundTruth:
@@ -241,11 +243,12 @@ class Renderer:
         center = self.project(pose, centre_w)[0]
         visible = full = 0
         occ = float("nan")
-        if occlusion and not counts and not self.people_may_cover_target(pose):
+        outline = self.target_outline(pose) if occlusion else None
+        if occlusion and not counts and not self.people_may_cover_target(pose, outline):
             visible = full = None
             occ = 0.0
         elif occlusion:
-            visible, full = self.occlusion_counts(pose)
+            visible, full = self.occlusion_counts(outline)
             occ = 1.0 - visible / full if full > 0 else 1.0
         return GroundTruth(
             frame=self.scene.frame_index, time=self.scene.time, center=center, corners=corners,

@@ -25,10 +25,9 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from hvs_sim.loop import StepRecord
+from hvs_sim.loop import MODES, StepRecord
 
 log = logging.getLogger(__name__)
-MODE_CODE = {"align": 0, "predict": 1, "lost": 2, "fault": 3}
 RERUN_PIXEL_OFFSET = 0.5  # hvs_sim pixel (OpenCV, centres at integers) → rerun image space (centres at +0.5)
 TWIST = ("vx", "vy", "vz", "wx", "wy", "wz")
 PATH_STEP_M = 0.001  # the drawn camera path gains a point when the camera has moved this far ...
@@ -139,7 +138,7 @@ class RerunLogger:
         rec.log("plots/error_px", rr.SeriesLines(names="ground-truth error to s* (px)", colors=[220, 50, 50]), static=True)
         rec.log("plots/tracker_error_px", rr.SeriesLines(names="tracker corner error (px)", colors=[50, 160, 50]), static=True)
         rec.log("plots/occlusion", rr.SeriesLines(names="true occlusion", colors=[120, 120, 120]), static=True)
-        rec.log("plots/mode", rr.SeriesPoints(names="mode (0 align, 1 predict, 2 lost, 3 fault)"), static=True)
+        rec.log("plots/mode", rr.SeriesPoints(names=f"mode ({', '.join(f'{i} {m}' for i, m in enumerate(MODES))})"), static=True)
         rec.log("plots/log10_error_px", rr.SeriesLines(names="log10 ground-truth error (px)", colors=[220, 50, 50]),
                 static=True)
         rec.log("plots/log10_tracker_error_px", rr.SeriesLines(names="log10 tracker error (px)", colors=[50, 160, 50]),
@@ -200,7 +199,7 @@ class RerunLogger:
             rec.log("plots/rank_L", rr.Scalars(r.rank))
         if np.isfinite(r.occlusion):  # NaN: not evaluated (LoopConfig.evaluate=False)
             rec.log("plots/occlusion", rr.Scalars(r.occlusion))
-        rec.log("plots/mode", rr.Scalars(MODE_CODE.get(r.mode, 3)))
+        rec.log("plots/mode", rr.Scalars(MODES.index(r.mode) if r.mode in MODES else MODES.index("fault")))
         for name, v in zip(TWIST, r.twist):
             rec.log(f"plots/twist/{name}", rr.Scalars(v))
         for i, v in enumerate(r.qdot):
