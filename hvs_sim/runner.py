@@ -86,8 +86,7 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
         if logger is not None:  # a complete recording of the steps so far, whatever stopped the run
             if stats.n:
                 logger.log_summary(_summary(scenario, tracker, stats, logger, interrupted))
-            logger.rec.flush()
-            logger.rec.disconnect()
+            logger.close()
         if json_path and (completed or (interrupted and stats.n)):
             Path(json_path).write_text(json.dumps(_summary(scenario, tracker, stats, logger, interrupted), indent=2))
     summary = _summary(scenario, tracker, stats, logger, False)

@@ -64,7 +64,7 @@ SHIFT_BITS = 4  # sub-pixel bits for cv2 drawing, so the outline sits where the 
 DRAW_LIMIT_PX = 1e5  # clip coordinates before drawing so a wild pose cannot overflow int32
 MARKER_PX = 12
 LABEL_ORIGIN, LABEL_SCALE = (8, 20), 0.5
-RRD_JPEG_QUALITY = 85  # as in viz/rerun_log.py
+RRD_JPEG_QUALITY = 85  # as viz/rerun_log.JPEG_QUALITY
 # plots/mode uses viz/rerun_log.py's codes (init counts as aligned); not imported from there because that
 # module loads the whole simulator (loop, renderer, MuJoCo), which tracking footage does not need
 MODE_PLOT_CODE = {INIT_MODE: 0, "align": 0, "predict": 1, "lost": 2}
@@ -199,9 +199,12 @@ class RerunTrackLog:
     def __init__(self, rrd: Path, fps: float):
         import rerun as rr
 
+        from hvs_sim.viz.rr_stream import ScalarColumns
+
         self.rr, self.fps, self.failed = rr, fps, False
         self.rec = rr.RecordingStream("hvs_sim_track")
         self.rec.save(str(rrd), default_blueprint=self._blueprint())
+        self.plots = ScalarColumns(self.rec, "frame", "video_time")
         self._guard(self._static)
 
     def _blueprint(self):
@@ -235,19 +238,23 @@ class RerunTrackLog:
         self._guard(self._log, index, frame, track)
 
     def _log(self, index: int, frame: np.ndarray, track: Track) -> None:
-        rr, rec = self.rr, self.rec
+        from hvs_sim.viz.rr_stream import jpeg
+
+        rr, rec, plot = self.rr, self.rec, self.plots
         colour = list(MODE_COLOURS.get(track.mode, MODE_COLOURS["lost"]))
         rec.set_time("frame", sequence=index)
         rec.set_time("video_time", duration=index / self.fps)
-        rec.log("video/image", rr.Image(frame).compress(jpeg_quality=RRD_JPEG_QUALITY))
+        rec.log("video/image", jpeg(frame, RRD_JPEG_QUALITY))
         rec.log("video/image/tracked", rr.LineStrips2D([np.vstack([track.corners, track.corners[:1]])], colors=[colour]))
         rec.log("video/image/center", rr.Points2D([track.center], colors=[colour], radii=2.0))
-        rec.log("plots/occlusion", rr.Scalars(track.occlusion))
-        rec.log("plots/score", rr.Scalars(track.score))
-        rec.log("plots/ms", rr.Scalars(track.ms))
-        rec.log("plots/mode", rr.Scalars(MODE_PLOT_CODE.get(track.mode, MODE_PLOT_CODE["lost"])))
+        plot.at(index, index / self.fps)
+        plot.add("plots/occlusion", track.occlusion)
+        plot.add("plots/score", track.score)
+        plot.add("plots/ms", track.ms)
+        plot.add("plots/mode", MODE_PLOT_CODE.get(track.mode, MODE_PLOT_CODE["lost"]))
 
     def close(self) -> None:
+        self._guard(self.plots.flush)
         self.rec.flush()
         self.rec.disconnect()
 

@@ -26,12 +26,14 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from hvs_sim.loop import MODES, StepRecord
+from hvs_sim.viz.rr_stream import ScalarColumns, jpeg
 
 log = logging.getLogger(__name__)
 RERUN_PIXEL_OFFSET = 0.5  # hvs_sim pixel (OpenCV, centres at integers) → rerun image space (centres at +0.5)
 TWIST = ("vx", "vy", "vz", "wx", "wy", "wz")
 PATH_STEP_M = 0.001  # the drawn camera path gains a point when the camera has moved this far ...
 PATH_MAX_POINTS = 2000  # ... and is thinned to half when it has more points than this
+JPEG_QUALITY = 85  # the logged camera frames
 
 
 def _quat_xyzw(R: np.ndarray) -> list[float]:
@@ -87,6 +89,7 @@ class RerunLogger:
         self.rec = rec
         self.failed = False
         self.path: list[np.ndarray] = []
+        self.plots = ScalarColumns(rec, "step", "sim_time")  # plots/*: sent every PLOT_FLUSH_STEPS steps
         self._guard(self._static, K, width, height, target_world)
         if config is not None:
             self._guard(self._text, "run/config", "set-up", config)
@@ -116,6 +119,12 @@ class RerunLogger:
     def log_summary(self, summary: dict) -> None:
         """The run's summary, at run/summary (written at the end, or when the run was interrupted)."""
         self._guard(self._text, "run/summary", "summary", summary)
+
+    def close(self) -> None:
+        """Send the buffered plots and finish the recording (also after an interruption)."""
+        self._guard(self.plots.flush)
+        self.rec.flush()
+        self.rec.disconnect()
 
     def _guard(self, fn, *args) -> None:
         if self.failed:
@@ -172,7 +181,7 @@ class RerunLogger:
         if self._extend_path(r.camera.t):
             rec.log("world/trajectory", rr.LineStrips3D([np.array(self.path)], colors=[80, 140, 255]))
         if r.frame is not None:
-            rec.log("world/camera/image", rr.Image(r.frame).compress(jpeg_quality=85))
+            rec.log("world/camera/image", jpeg(r.frame, JPEG_QUALITY))
         closed = lambda p: [np.vstack([p, p[:1]])]
         off = RERUN_PIXEL_OFFSET
         if np.all(np.isfinite(r.features)):
@@ -187,20 +196,21 @@ class RerunLogger:
             quats = [rr.Quaternion(xyzw=_quat_xyzw(R)) for _, R in r.people]
             rec.log("world/occluder", rr.Boxes3D(centers=centers, half_sizes=[[0.15, 0.3, 0.9]] * len(centers),
                                                  quaternions=quats, colors=[200, 120, 80]))
-        rec.log("plots/error_px", rr.Scalars(r.error_px))
-        rec.log("plots/log10_error_px", rr.Scalars(np.log10(max(r.error_px, 1e-3))))
+        plot = self.plots
+        plot.at(r.step, r.time)
+        plot.add("plots/error_px", r.error_px)
+        plot.add("plots/log10_error_px", np.log10(max(r.error_px, 1e-3)))
         if np.isfinite(r.tracker_error_px):
-            rec.log("plots/tracker_error_px", rr.Scalars(r.tracker_error_px))
-            rec.log("plots/log10_tracker_error_px", rr.Scalars(np.log10(max(r.tracker_error_px, 1e-3))))
-        rec.log("plots/pose_error_mm", rr.Scalars(float(np.linalg.norm(r.pose_error[:3]))))
-        rec.log("plots/pose_error_deg", rr.Scalars(float(np.linalg.norm(r.pose_error[3:]))))
+            plot.add("plots/tracker_error_px", r.tracker_error_px)
+            plot.add("plots/log10_tracker_error_px", np.log10(max(r.tracker_error_px, 1e-3)))
+        plot.add("plots/pose_error_mm", np.linalg.norm(r.pose_error[:3]))
+        plot.add("plots/pose_error_deg", np.linalg.norm(r.pose_error[3:]))
         if r.condition is not None:
-            rec.log("plots/condition_L", rr.Scalars(r.condition))
-            rec.log("plots/rank_L", rr.Scalars(r.rank))
-        if np.isfinite(r.occlusion):  # NaN: not evaluated (LoopConfig.evaluate=False)
-            rec.log("plots/occlusion", rr.Scalars(r.occlusion))
-        rec.log("plots/mode", rr.Scalars(MODES.index(r.mode) if r.mode in MODES else MODES.index("fault")))
+            plot.add("plots/condition_L", r.condition)
+            plot.add("plots/rank_L", r.rank)
+        plot.add("plots/occlusion", r.occlusion)  # NaN (LoopConfig.evaluate=False) is not plotted
+        plot.add("plots/mode", MODES.index(r.mode) if r.mode in MODES else MODES.index("fault"))
         for name, v in zip(TWIST, r.twist):
-            rec.log(f"plots/twist/{name}", rr.Scalars(v))
+            plot.add(f"plots/twist/{name}", v)
         for i, v in enumerate(r.qdot):
-            rec.log(f"plots/joint_velocity/j{i + 1}", rr.Scalars(v))
+            plot.add(f"plots/joint_velocity/j{i + 1}", v)
