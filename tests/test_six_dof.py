@@ -234,3 +234,34 @@ def test_damped_pseudo_inverse_is_the_pseudo_inverse_at_zero_and_damps_the_weak_
     assert np.allclose(D @ strong, np.linalg.pinv(L) @ strong, rtol=1e-3)
     with pytest.raises(ConfigError, match="damping"):
         IBVSConfig(damping=-0.1)
+
+
+@pytest.mark.parametrize("motion", [cv2.MOTION_HOMOGRAPHY, cv2.MOTION_AFFINE])
+def test_ecc_from_the_truth_stays_there(motion):
+    """ECC on the frame its template was cut from, started at the identity, stays there: the template is
+    cut from the pre-filtered frame (tracking/ecc.py). OpenCV smoothing the cropped template itself
+    (reflected border) moved these corners by 0.01–0.1 px on this photo."""
+    from hvs_sim.tracking.ecc import ecc_template, find_transform
+
+    grey = cv2.cvtColor(photo("astronaut"), cv2.COLOR_RGB2GRAY)
+    x, y, w, h = ROI
+    T = np.array([[1, 0, x], [0, 1, y], [0, 0, 1.0]])
+    W0 = T if motion == cv2.MOTION_HOMOGRAPHY else T[:2]
+    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 50, 1e-6)
+    _, W = find_transform(ecc_template(grey, ROI, 5), grey, W0, motion, criteria, None, 5)
+    W = W if motion == cv2.MOTION_HOMOGRAPHY else np.vstack([W, [0, 0, 1]])
+    corners = roi_corners((0, 0, w, h))
+    assert np.abs(apply(W.astype(float), corners) - apply(T, corners)).max() < 1e-3
+    # and it is the frame's own smoothing that matters: the crop smoothed alone is a different template
+    own = cv2.GaussianBlur(grey[y:y + h, x:x + w].astype(np.float32), (5, 5), 0)
+    assert np.abs(own - ecc_template(grey, ROI, 5))[:2].max() > 1.0
+
+
+def test_ecc_filter_size_is_checked():
+    from hvs_sim.errors import ConfigError
+    from hvs_sim.tracking.ecc import check_gauss
+
+    assert check_gauss(5) == 5
+    for bad in (0, 4, -3, 2.5):
+        with pytest.raises(ConfigError, match="odd integer"):
+            check_gauss(bad)

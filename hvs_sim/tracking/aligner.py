@@ -22,6 +22,7 @@ import numpy as np
 import torch
 
 from hvs_sim.errors import ConfigError
+from hvs_sim.tracking.ecc import ecc_template, find_transform
 from hvs_sim.tracking.feature_lk import HUBER_K, MAD_TO_SIGMA, AlignResult, FeatureICLK, LKConfig
 from hvs_sim.tracking.frames import roi_center, to_grey
 from hvs_sim.tracking.global_match import GlobalMatcher, Match
@@ -194,6 +195,7 @@ class Aligner:
         work = self.work_image(frame)
         x, y, w, h = roi
         self.template_full = self.full_grey[y:y + h, x:x + w].astype(np.float32)
+        self.template_ecc = ecc_template(self.full_grey, roi, ECC_GAUSS)  # for refine_intensity (ecc.py)
         self.full_origin = np.array([x, y], float)
         s = self.config.scale
         self.center0 = roi_center(roi)
@@ -386,8 +388,8 @@ class Aligner:
             h, w = self.full_grey.shape
             mask = warp_image(seen.astype(np.uint8), A_full @ T, (w, h), flags=cv2.INTER_NEAREST)
         try:
-            _, W = cv2.findTransformECC(self.template_full, self.full_grey.astype(np.float32), W,
-                                        cv2.MOTION_HOMOGRAPHY, ECC_CRITERIA, mask, ECC_GAUSS)
+            _, W = find_transform(self.template_ecc, self.full_grey, W, cv2.MOTION_HOMOGRAPHY, ECC_CRITERIA, mask,
+                                  ECC_GAUSS)
         except cv2.error:
             return None
         A = W.astype(float) @ np.linalg.inv(T)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from hvs_sim.errors import ConfigError
 from hvs_sim.tracking.base import Estimate, Tracker
+from hvs_sim.tracking.ecc import check_gauss, ecc_template, find_transform
 from hvs_sim.tracking.frames import to_grey
 from hvs_sim.tracking.occlusion import TAU_PIX, aligned_patch, occlusion_fraction
 from hvs_sim.tracking.warp import check_warp, project_similarity
@@ -75,7 +75,7 @@ class SiftTracker(_GreyTemplate):
 
 class EccTracker(_GreyTemplate):
     """OpenCV ECC (the paper's "LK-only") from the previous estimate: affine, projected to a similarity
-    (or a homography with warp="homography")."""
+    (or a homography with warp="homography"). The template is cut from the pre-filtered frame (ecc.py)."""
 
     name = "ecc"
 
@@ -84,11 +84,13 @@ class EccTracker(_GreyTemplate):
         self.warp = check_warp(warp)
         check_number("ecc iterations", iterations, 1, integer=True)
         check_number("ecc eps", eps, 0, lo_open=True)
-        check_number("ecc gauss", gauss, 1, integer=True)
-        if gauss % 2 == 0:  # OpenCV's Gaussian pre-filter needs an odd size; an even one fails on every frame
-            raise ConfigError(f"ecc gauss (Gaussian filter size) must be an odd integer >= 1, got {gauss}")
+        check_gauss(gauss, "ecc gauss")
         self.criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, iterations, eps)
         self.gauss = gauss
+
+    def _init(self, frame, roi) -> None:
+        super()._init(frame, roi)
+        self.template_ecc = ecc_template(to_grey(frame), roi, self.gauss)
 
     def _update(self, frame) -> Estimate:
         grey = to_grey(frame)
@@ -97,8 +99,7 @@ class EccTracker(_GreyTemplate):
         W = (self.A @ T) if homography else (self.A @ T)[:2]  # template pixel → frame pixel
         motion = cv2.MOTION_HOMOGRAPHY if homography else cv2.MOTION_AFFINE
         try:
-            score, W = cv2.findTransformECC(self.template, grey, W.astype(np.float32), motion, self.criteria, None,
-                                            self.gauss)
+            score, W = find_transform(self.template_ecc, grey, W, motion, self.criteria, None, self.gauss)
         except cv2.error:  # raised when ECC does not converge or the frame is degenerate
             return Estimate(self.A, "lost", self.occlusion(grey, self.A), 0.0)
         if homography:
