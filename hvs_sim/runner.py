@@ -46,7 +46,7 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
                  "people": scenario.people, "start_offset": list(scenario.start_offset), "loop": asdict(config)}
         logger = RerunLogger(rec, loop.renderer.K, scenario.camera.width, scenario.camera.height,
                              loop.scene.target_corners_world(), config=setup, wall=loop.scene.wall_box(),
-                             arm_meshes=loop.scene.arm_meshes())
+                             arm_meshes=loop.scene.arm_meshes(), background=True)
     stats = RunStats(config)
     picks = FramePicks(config.steps) if figures else None
     records: list[StepRecord] = []
@@ -84,6 +84,7 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
         if csv_file is not None:
             csv_file.close()
         if logger is not None:  # a complete recording of the steps so far, whatever stopped the run
+            logger.drain()  # the queued steps first: whether logging failed is known after them
             if stats.n:
                 logger.log_summary(_summary(scenario, tracker, stats, logger, interrupted))
             logger.close()

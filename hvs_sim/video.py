@@ -64,7 +64,6 @@ SHIFT_BITS = 4  # sub-pixel bits for cv2 drawing, so the outline sits where the 
 DRAW_LIMIT_PX = 1e5  # clip coordinates before drawing so a wild pose cannot overflow int32
 MARKER_PX = 12
 LABEL_ORIGIN, LABEL_SCALE = (8, 20), 0.5
-RRD_JPEG_QUALITY = 85  # as viz/rerun_log.JPEG_QUALITY
 # plots/mode uses viz/rerun_log.py's codes (init counts as aligned); not imported from there because that
 # module loads the whole simulator (loop, renderer, MuJoCo), which tracking footage does not need
 MODE_PLOT_CODE = {INIT_MODE: 0, "align": 0, "predict": 1, "lost": 2}
@@ -199,9 +198,9 @@ class RerunTrackLog:
     def __init__(self, rrd: Path, fps: float):
         import rerun as rr
 
-        from hvs_sim.viz.rr_stream import ScalarColumns
+        from hvs_sim.viz.rr_stream import ScalarColumns, jpeg
 
-        self.rr, self.fps, self.failed = rr, fps, False
+        self.rr, self.jpeg, self.fps, self.failed = rr, jpeg, fps, False
         self.rec = rr.RecordingStream("hvs_sim_track")
         self.rec.save(str(rrd), default_blueprint=self._blueprint())
         self.plots = ScalarColumns(self.rec, "frame", "video_time")
@@ -238,13 +237,11 @@ class RerunTrackLog:
         self._guard(self._log, index, frame, track)
 
     def _log(self, index: int, frame: np.ndarray, track: Track) -> None:
-        from hvs_sim.viz.rr_stream import jpeg
-
         rr, rec, plot = self.rr, self.rec, self.plots
         colour = list(MODE_COLOURS.get(track.mode, MODE_COLOURS["lost"]))
         rec.set_time("frame", sequence=index)
         rec.set_time("video_time", duration=index / self.fps)
-        rec.log("video/image", jpeg(frame, RRD_JPEG_QUALITY))
+        rec.log("video/image", self.jpeg(frame))
         rec.log("video/image/tracked", rr.LineStrips2D([np.vstack([track.corners, track.corners[:1]])], colors=[colour]))
         rec.log("video/image/center", rr.Points2D([track.center], colors=[colour], radii=2.0))
         plot.at(index, index / self.fps)

@@ -1,6 +1,8 @@
 """Closed loop, gymnasium environment and rerun recording."""
 
 
+import json
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -75,6 +77,38 @@ def test_short_run_writes_rrd_with_documented_entities(tmp_path):
                 "/plots/occlusion", "/plots/mode", "/plots/twist/vx", "/plots/joint_velocity/j1",
                 "/world/wall", "/world/arm/mesh_0", "/run/config", "/run/summary", "/plots/log10_error_px"}
     assert expected <= paths, expected - paths
+
+
+def test_recording_holds_every_step_written_by_the_background_writer(tmp_path):
+    """The runner logs from a writer thread and plots as columns: after the run, every step's frame, pose and
+    plotted values are in the .rrd (none lost in the queue or the plot buffer, none twice)."""
+    from rerun.chunk import RrdReader
+
+    steps = 23  # not a multiple of the plots' flush interval: the last partial batch must be sent at close
+    rrd = tmp_path / "run.rrd"
+    run_episode(make_scenario("walk_by", mount="arm", camera=SMALL), "ground_truth", LoopConfig(steps=steps),
+                rrd=str(rrd), progress=False)
+    at = {}  # entity path → the `step` of each logged row (the writer thread sets its own time context)
+    for chunk in RrdReader(str(rrd)).store().stream():
+        if not chunk.is_static:
+            at.setdefault(chunk.entity_path, []).extend(chunk.to_record_batch().column("step").to_pylist())
+    for path in ("/world/camera/image", "/world/camera", "/plots/error_px", "/plots/twist/vx", "/plots/mode",
+                 "/world/arm/mesh_0"):
+        assert sorted(at.get(path, [])) == list(range(steps)), path
+
+
+def test_a_logging_failure_in_the_writer_thread_is_reported_not_raised(tmp_path, monkeypatch):
+    """A recording that fails part-way (here: the frame encoder) stops logging, and the run goes on and says so."""
+    from hvs_sim.viz import rerun_log
+
+    def broken(frame, quality=85):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(rerun_log, "jpeg", broken)
+    summary, _ = run_episode(make_scenario("walk_by", mount="arm", camera=SMALL), "ground_truth", LoopConfig(steps=6),
+                             rrd=str(tmp_path / "run.rrd"), progress=False, json_path=str(tmp_path / "run.json"))
+    assert summary["steps_run"] == 6 and summary["logging_failed"] is True
+    assert json.loads((tmp_path / "run.json").read_text())["logging_failed"] is True
 
 
 def test_env_checker_passes_without_warnings():

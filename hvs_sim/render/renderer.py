@@ -79,7 +79,7 @@ class Renderer:
                         m.vis.headlight.ambient.copy())
         self._last: tuple[tuple[int, int], np.ndarray] | None = None  # ((scene resets, frame), frame): one capture a frame
         self.blur_samples = 1  # sub-frame renders used for the last frame (diagnostics)
-        self._cam: engine.Camera | None = None  # made at the first render (after the fork check)
+        self._cam: engine.Camera | None = None  # made at the first render (the fork check ran in __init__)
 
     @staticmethod
     def intrinsics_of(scenario) -> np.ndarray:

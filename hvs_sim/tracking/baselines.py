@@ -19,8 +19,11 @@ class _GreyTemplate(Tracker):
     """Shared part: the grey template at full resolution and OP_t against it."""
 
     def _init(self, frame, roi) -> None:
+        self._set_template(to_grey(frame), roi)
+
+    def _set_template(self, grey: np.ndarray, roi) -> None:
         x, y, w, h = roi
-        self.template = to_grey(frame)[y:y + h, x:x + w].copy()
+        self.template = grey[y:y + h, x:x + w].copy()
         self.origin = np.array([x, y], float)
 
     def occlusion(self, grey: np.ndarray, A: np.ndarray) -> float:
@@ -89,8 +92,9 @@ class EccTracker(_GreyTemplate):
         self.gauss = gauss
 
     def _init(self, frame, roi) -> None:
-        super()._init(frame, roi)
-        self.template_ecc = ecc_template(to_grey(frame), roi, self.gauss)
+        grey = to_grey(frame)
+        self._set_template(grey, roi)
+        self.template_ecc = ecc_template(grey, roi, self.gauss)
 
     def _update(self, frame) -> Estimate:
         grey = to_grey(frame)

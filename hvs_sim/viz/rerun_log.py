@@ -19,7 +19,10 @@ image space at +0.5.
 
 from __future__ import annotations
 
+import copy
 import logging
+import queue
+import threading
 
 import numpy as np
 import rerun as rr
@@ -33,7 +36,9 @@ RERUN_PIXEL_OFFSET = 0.5  # hvs_sim pixel (OpenCV, centres at integers) → reru
 TWIST = ("vx", "vy", "vz", "wx", "wy", "wz")
 PATH_STEP_M = 0.001  # the drawn camera path gains a point when the camera has moved this far ...
 PATH_MAX_POINTS = 2000  # ... and is thinned to half when it has more points than this
-JPEG_QUALITY = 85  # the logged camera frames
+# background=True: at most this many steps wait for the writer thread; a loop that outruns it waits (so memory
+# stays bounded) and that wait is what the loop's "log" stage then measures
+LOG_QUEUE_STEPS = 4
 
 
 def _quat_xyzw(R: np.ndarray) -> list[float]:
@@ -80,14 +85,23 @@ def recording(application_id: str = "hvs_sim", rrd: str | None = None, spawn: bo
 
 
 class RerunLogger:
-    """Logs StepRecords to a RecordingStream. Failures are logged once and then ignored."""
+    """Logs StepRecords to a RecordingStream. Failures are logged once and then ignored.
+
+    background=True: the steps are logged by a writer thread (archetypes built, the frame JPEG-encoded) while the
+    loop renders and tracks the next frame; the loop only hands a shallow copy of the record over (and waits only
+    when LOG_QUEUE_STEPS are queued). `drain()` waits for the queued steps; `close()` drains, then finishes the
+    recording."""
 
     def __init__(self, rec: rr.RecordingStream, K: np.ndarray, width: int, height: int, target_world: np.ndarray | None = None,
-                 config: dict | None = None, wall: tuple | None = None, arm_meshes: list | None = None):
+                 config: dict | None = None, wall: tuple | None = None, arm_meshes: list | None = None,
+                 background: bool = False):
         """config: the run's set-up, logged as text at run/config; wall: (centre, R, half sizes) of the board;
         arm_meshes: (vertices, triangles, RGBA) per arm mesh (Scene.arm_meshes), posed every step."""
         self.rec = rec
         self.failed = False
+        self.background = background
+        self._queue: queue.Queue | None = None
+        self._writer: threading.Thread | None = None  # started by the first log_step, stopped by drain()
         self.path: list[np.ndarray] = []
         self.plots = ScalarColumns(rec, "step", "sim_time")  # plots/*: sent every PLOT_FLUSH_STEPS steps
         self._guard(self._static, K, width, height, target_world)
@@ -97,6 +111,11 @@ class RerunLogger:
             self._guard(self._wall, *wall)
         if arm_meshes:
             self._guard(self._arm, arm_meshes)
+
+    def _write(self) -> None:
+        """The writer thread: logs queued records until it takes the None that drain() puts."""
+        while (r := self._queue.get()) is not None:
+            self._guard(self._step, r)
 
     def _arm(self, meshes) -> None:
         for k, (verts, faces, rgba) in enumerate(meshes):
@@ -120,8 +139,17 @@ class RerunLogger:
         """The run's summary, at run/summary (written at the end, or when the run was interrupted)."""
         self._guard(self._text, "run/summary", "summary", summary)
 
+    def drain(self) -> None:
+        """Wait until the writer thread has logged every queued step, and stop it (`failed` is final then)."""
+        if self._writer is not None:
+            self._queue.put(None)
+            self._writer.join()
+            self._writer = self._queue = None
+
     def close(self) -> None:
-        """Send the buffered plots and finish the recording (also after an interruption)."""
+        """Log what the writer has queued, send the buffered plots and finish the recording (also after an
+        interruption)."""
+        self.drain()
         self._guard(self.plots.flush)
         self.rec.flush()
         self.rec.disconnect()
@@ -171,7 +199,16 @@ class RerunLogger:
         return True
 
     def log_step(self, r: StepRecord) -> None:
-        self._guard(self._step, r)
+        if not self.background:
+            self._guard(self._step, r)
+            return
+        if self.failed:
+            return
+        if self._writer is None:
+            self._queue = queue.Queue(maxsize=LOG_QUEUE_STEPS)
+            self._writer = threading.Thread(target=self._write, name="hvs_sim-rerun-writer", daemon=True)
+            self._writer.start()
+        self._queue.put(copy.copy(r))  # a copy: the caller may drop the record's frame once this returns
 
     def _step(self, r: StepRecord) -> None:
         rec = self.rec
@@ -181,7 +218,7 @@ class RerunLogger:
         if self._extend_path(r.camera.t):
             rec.log("world/trajectory", rr.LineStrips3D([np.array(self.path)], colors=[80, 140, 255]))
         if r.frame is not None:
-            rec.log("world/camera/image", jpeg(r.frame, JPEG_QUALITY))
+            rec.log("world/camera/image", jpeg(r.frame))
         closed = lambda p: [np.vstack([p, p[:1]])]
         off = RERUN_PIXEL_OFFSET
         if np.all(np.isfinite(r.features)):

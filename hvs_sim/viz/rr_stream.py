@@ -16,9 +16,10 @@ import numpy as np
 import rerun as rr
 
 PLOT_FLUSH_STEPS = 15  # plotted values are sent every this many steps (0.5 s at 30 Hz)
+JPEG_QUALITY = 85  # recorded frames
 
 
-def jpeg(frame: np.ndarray, quality: int) -> rr.EncodedImage:
+def jpeg(frame: np.ndarray, quality: int = JPEG_QUALITY) -> rr.EncodedImage:
     """An RGB (H×W×3) or grey (H×W) uint8 frame as a JPEG image for rerun."""
     bgr = cv2.cvtColor(frame, cv2.COLOR_RGB2BGR) if frame.ndim == 3 else frame
     ok, buf = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
