@@ -270,7 +270,7 @@ def test_ecc_filter_size_is_checked():
 def test_ecc_mask_is_shrunk_as_opencv_shrinks_it_for_its_own_filter():
     """Pixels within the filter's reach of a masked-out area (an occluder) stay out of ECC: OpenCV drops them
     when it smooths; with the frame pre-filtered here the mask is shrunk the same way (ecc.find_transform)."""
-    import hvs_sim.tracking.ecc as ecc
+    from hvs_sim.tracking import ecc
 
     seen = {}
     real = cv2.findTransformECC
