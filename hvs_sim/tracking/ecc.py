@@ -38,16 +38,13 @@ def ecc_template(grey: np.ndarray, roi, gauss: int) -> np.ndarray:
     return prefilter(grey, gauss)[y:y + h, x:x + w].copy()
 
 
-MASK_KEEP = 0.95  # as OpenCV: a masked pixel is used only where its smoothed mask stays above this
-
-
 def find_transform(template: np.ndarray, grey: np.ndarray, warp: np.ndarray, motion: int, criteria,
                    mask: np.ndarray | None, gauss: int) -> tuple[float, np.ndarray]:
     """cv2.findTransformECC of an `ecc_template` in the frame `grey` (pre-filtered here, whole, with the
-    same size). A mask on the frame is shrunk as OpenCV shrinks it for its own filter (smoothed, kept ≥ 0.95),
-    so pixels whose smoothing took in masked-out ones (an occluder) stay out. Raises cv2.error as OpenCV does
-    when it does not converge."""
-    if mask is not None and gauss > 1:
-        kept = cv2.GaussianBlur((mask > 0).astype(np.float32), (gauss, gauss), 0) >= MASK_KEEP
-        mask = kept.astype(np.uint8)
+    same size). Raises cv2.error as OpenCV does when it does not converge.
+
+    A mask on the frame is used as given. OpenCV, when it filters, also drops the pixels within the filter's
+    reach of a masked-out one; doing the same here measured worse where the mask is speckled by noise (warped
+    photos with noise: median worst-corner error 0.11 → 0.14 px, p90 0.68 → 1.23 px) and slightly better under a
+    walking occluder (0.266 → 0.254 px), so it is not done."""
     return cv2.findTransformECC(template, prefilter(grey, gauss), warp.astype(np.float32), motion, criteria, mask, 1)
