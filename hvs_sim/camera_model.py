@@ -315,12 +315,17 @@ class SensorState:
         return (electrons + np.sqrt(var) * z) / np.float32(fw)
 
 
-def jpeg(frame: np.ndarray, quality: int) -> np.ndarray:
-    """Encode and decode an RGB uint8 frame as JPEG (4:2:0, as cameras and video streams do)."""
+def encode_jpeg(frame: np.ndarray, quality: int) -> np.ndarray:
+    """An RGB uint8 frame as JPEG bytes (4:2:0, as cameras and video streams do; OpenCV's libjpeg-turbo)."""
     ok, buf = cv2.imencode(".jpg", cv2.cvtColor(frame, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
     if not ok:  # pragma: no cover - OpenCV always encodes a valid uint8 image
         raise ConfigError("JPEG encoding failed")
-    return cv2.cvtColor(cv2.imdecode(buf, cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
+    return buf
+
+
+def jpeg(frame: np.ndarray, quality: int) -> np.ndarray:
+    """Encode and decode an RGB uint8 frame as JPEG (`encode_jpeg`)."""
+    return cv2.cvtColor(cv2.imdecode(encode_jpeg(frame, quality), cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
 
 
 # ---------------------------------------------------------------- lens distortion

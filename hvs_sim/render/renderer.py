@@ -187,9 +187,10 @@ class Renderer:
         pos, R = self.scene.camera_pose_cv()
         return CameraPose(R, pos)
 
-    def target_outline(self, pose: CameraPose) -> np.ndarray:
-        """The target's corners (4, 2) in the undistorted view the segmentation renders show (NaN behind the camera)."""
-        return project(self.K, pose, self.scene.target_corners_world())
+    def target_outline(self, pose: CameraPose, corners_world: np.ndarray | None = None) -> np.ndarray:
+        """The target's corners (4, 2) in the undistorted view the segmentation renders show (NaN behind the camera);
+        corners_world: `Scene.target_corners_world()` when the caller already has them."""
+        return project(self.K, pose, self.scene.target_corners_world() if corners_world is None else corners_world)
 
     def occlusion_counts(self, outline_px: np.ndarray) -> tuple[int, int]:
         """(visible, full) pixel counts of the target from ONE segmentation render; outline_px: `target_outline`.
@@ -251,7 +252,7 @@ class Renderer:
         center = self.project(pose, centre_w)[0]
         visible = full = 0
         occ = float("nan")
-        outline = self.target_outline(pose) if occlusion else None
+        outline = self.target_outline(pose, corners_w) if occlusion else None
         if occlusion and not counts and not self.people_may_cover_target(pose, outline):
             visible = full = None
             occ = 0.0

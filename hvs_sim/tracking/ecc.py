@@ -5,7 +5,7 @@ separately. The template is a crop, so its outer two pixels are smoothed against
 while the same pixels in the image are smoothed against their true neighbours: where a strong edge
 runs near the crop's border (a flag's outline against the board behind it) the two disagree, and
 ECC moves the warp to split the difference. On a clean render of the servo target, ECC started from
-the true homography (or from the identity, on the very frame the template came from) ended 0.1–0.25 px
+the true homography, or from the template's own place on the very frame it came from, ended 0.01–0.25 px
 from it at the template's corners. Smoothing the whole frame first and cutting the template from it,
 then letting ECC smooth nothing (size 1), removes that: the same start stays at the truth.
 """

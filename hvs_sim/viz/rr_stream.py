@@ -6,26 +6,24 @@ costs ~0.1 ms of Python, of which a servo step plots ~25. `ScalarColumns` buffer
 and sends each series as one column (`RecordingStream.send_columns`) every `flush_every` steps: a
 live viewer's plots trail the images by at most that many steps; a saved .rrd holds the same data.
 
-Light on imports on purpose: no simulator module is loaded here (see video.py).
+Light on imports on purpose: no MuJoCo, torch or scene module is loaded here (see video.py).
 """
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 import rerun as rr
+
+from hvs_sim.camera_model import encode_jpeg
+from hvs_sim.errors import ConfigError, StateError
 
 PLOT_FLUSH_STEPS = 15  # plotted values are sent every this many steps (0.5 s at 30 Hz)
 JPEG_QUALITY = 85  # recorded frames
 
 
 def jpeg(frame: np.ndarray, quality: int = JPEG_QUALITY) -> rr.EncodedImage:
-    """An RGB (H×W×3) or grey (H×W) uint8 frame as a JPEG image for rerun."""
-    bgr = cv2.cvtColor(frame, cv2.COLOR_RGB2BGR) if frame.ndim == 3 else frame
-    ok, buf = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
-    if not ok:
-        raise ValueError(f"OpenCV could not encode a {frame.shape} {frame.dtype} frame as JPEG")
-    return rr.EncodedImage(contents=buf.tobytes(), media_type="image/jpeg")
+    """An RGB (H×W×3) uint8 frame as a JPEG image for rerun (camera_model.encode_jpeg)."""
+    return rr.EncodedImage(contents=encode_jpeg(frame, quality).tobytes(), media_type="image/jpeg")
 
 
 class ScalarColumns:
@@ -38,7 +36,7 @@ class ScalarColumns:
 
     def __init__(self, rec: rr.RecordingStream, sequence: str, duration: str, flush_every: int = PLOT_FLUSH_STEPS):
         if flush_every < 1:
-            raise ValueError(f"flush_every must be ≥ 1, got {flush_every}")
+            raise ConfigError(f"flush_every must be ≥ 1, got {flush_every}")
         self.rec, self.sequence, self.duration, self.flush_every = rec, sequence, duration, flush_every
         self._now: tuple[int, float] | None = None
         self._steps = 0  # steps buffered since the last flush
@@ -53,7 +51,7 @@ class ScalarColumns:
 
     def add(self, path: str, value: float) -> None:
         if self._now is None:
-            raise RuntimeError("ScalarColumns.add before at(): no step to put the value at")
+            raise StateError("ScalarColumns.add before at(): no step to put the value at")
         value = float(value)
         if not np.isfinite(value):
             return
