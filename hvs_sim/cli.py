@@ -119,7 +119,8 @@ def cmd_run(args) -> int:
     if args.start_offset is not None:
         scenario = dataclasses.replace(scenario, start_offset=parse_start_offset(args.start_offset))
     config = LoopConfig(steps=args.steps, controller=args.controller, evaluate=not args.no_eval,
-                        keep_frames=bool(args.rrd or args.spawn or args.figures))
+                        keep_frames=bool(args.rrd or args.spawn or args.figures), template_from=args.template_from,
+                        roi_inset_px=args.roi_inset)
     summary, _ = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,
                              tracker_settings=settings, figures=args.figures)
     brief = {k: summary[k] for k in ("converged", "steps_to_converge", "final_error_px", "final_pose_error_mm",
@@ -220,9 +221,12 @@ def _check_bench_options(args) -> None:
                             ("--mounts", args.mounts)):
             if value:
                 raise ConfigError(f"{flag} applies to `bench track` only (the servo benchmark's camera is on the arm)")
-    elif args.episodes is not None or args.damping is not None:
-        raise ConfigError(f"{'--episodes' if args.episodes is not None else '--damping'} applies to `bench servo` only")
-    elif args.imagery == "natural":
+        return
+    for flag, value in (("--episodes", args.episodes), ("--damping", args.damping),
+                        ("--template-from", args.template_from), ("--roi-inset", args.roi_inset)):
+        if value is not None:
+            raise ConfigError(f"{flag} applies to `bench servo` only")
+    if args.imagery == "natural":
         for flag, value in (("--mounts", args.mounts), ("--people", args.people)):
             if value:
                 raise ConfigError(f"{flag} does not apply to --imagery natural (planar photos, a drawn person): "
@@ -325,6 +329,10 @@ def _cmd_bench_sim(args) -> int:
             given = {"trackers": ("ground_truth", "hybrid"), "scenarios": ("walk_by",), "episodes": 1, **given}
         if args.damping is not None:
             given["damping"] = args.damping
+        if args.template_from is not None:
+            given["template_from"] = args.template_from
+        if args.roi_inset is not None:
+            given["roi_inset_px"] = args.roi_inset
         cfg = ServoBenchConfig(workers=args.workers, camera=args.camera, people=args.people,
                                steps=30 if args.smoke else None, **given)
         summary = run_servo_bench(cfg, Path(args.out))
@@ -432,13 +440,22 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"one of: {', '.join(loop_trackers)} (default {DEFAULT_TRACKER}; the hybrid_* names are "
                         "its ablations, see hvs_sim/tracking/registry.py)")
     p.add_argument("--steps", type=int, default=240, help="control steps at 30 Hz")
-    from hvs_sim.control.ibvs import CONTROLLERS
+    from hvs_sim.control.ibvs import CONTROLLERS, TEMPLATE_VIEWS
     from hvs_sim.tracking.warp import WARPS
 
     p.add_argument("--warp", default=None, choices=WARPS,
                    help="the tracker's warp model (default: the tracker's, similarity); homography gives perspective "
                         "corners, and the controller then commands all six DOF")
     p.add_argument("--controller", default="ibvs", choices=CONTROLLERS, help="the servo law")
+    p.add_argument("--template-from", default=None, choices=TEMPLATE_VIEWS,
+                   help="where the tracker's template comes from: the run's first frame, or the goal image (the camera "
+                        "at the reference pose, people left out: teach-by-showing), the tracker then seeded at the "
+                        "target's corners in the first frame (default: goal for a tracker on six DOF, i.e. --warp "
+                        "homography; else start)")
+    p.add_argument("--roi-inset", type=int, default=None, metavar="PX",
+                   help="cut the template this many pixels inside the target's outline, which renders differently "
+                        "from view to view (default: 8 with a goal template, fewer for a target too small for it; 0 "
+                        "with a start template)")
     p.add_argument("--no-eval", action="store_true",
                    help="skip the evaluation render (the true occlusion, one segmentation render a step); errors "
                         "and pose errors, which need no render, are still recorded. Control never reads ground truth")
@@ -483,6 +500,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--damping", type=float, default=None,
                    help="servo only: damped pseudo-inverse, μ = damping × σ_max(L) (IBVSConfig.damping; default: 0.005 for "
                         "tracked features on six DOF, else 0)")
+    p.add_argument("--template-from", default=None, choices=TEMPLATE_VIEWS,
+                   help="servo only: where the tracker's template comes from (as `run --template-from`; default: goal "
+                        "for tracked corners on six DOF, else start)")
+    p.add_argument("--roi-inset", type=int, default=None, metavar="PX",
+                   help="servo only: cut the template this many pixels inside the target's outline (as `run "
+                        "--roi-inset`; default: 8 with a goal template, 0 with a start one)")
     p.add_argument("--imagery", default="sim", choices=("sim", "natural"),
                    help="track only: sim = rendered scenes (default); natural = photos and procedural pictures moved "
                         "like a hand-held phone, with a drawn person (hvs_sim/bench/natural.py)")

@@ -50,6 +50,8 @@ class ServoBenchConfig:
     people: str = "textured"  # how the people look ("plain": the flat figures of the earlier benchmarks)
     seeds: tuple[int, ...] | None = None  # explicit episode seeds (then `episodes` and `seed0` are not used)
     damping: float | None = None  # IBVSConfig.damping of every episode (None: the loop's default)
+    template_from: str | None = None  # LoopConfig.template_from of every episode (None: the loop's default)
+    roi_inset_px: int | None = None  # LoopConfig.roi_inset_px of every episode (None: the loop's default)
 
     def __post_init__(self):
         from hvs_sim.camera_model import sensor_preset
@@ -87,6 +89,7 @@ class ServoBenchConfig:
         sensor_preset(self.camera)
         if self.damping is not None:
             check_number("damping", self.damping, 0, 1)
+        LoopConfig(template_from=self.template_from, roi_inset_px=self.roi_inset_px)  # checks both
 
     @property
     def episode_seeds(self) -> list[int]:
@@ -151,12 +154,13 @@ def _episode(args):
     from hvs_sim.runner import run_episode
     from hvs_sim.scene.scenarios import CameraConfig
 
-    scen_name, method, seed, steps, extra, keep, camera, people, damping = args
+    scen_name, method, seed, steps, extra, keep, camera, people, damping, template_from, inset = args
     torch.set_num_threads(1 if os.environ.get("HVS_WORKERS", "1") != "1" else 2)
     tracker, warp, controller = parse_method(method)
     scen = episode_scenario(scen_name, seed, camera=CameraConfig(sensor=camera), people=people)
     n = steps if steps else scen.n_frames + extra
-    loop_config = LoopConfig(steps=n, keep_frames=False, controller=controller, ibvs=IBVSConfig(damping=damping))
+    loop_config = LoopConfig(steps=n, keep_frames=False, controller=controller, ibvs=IBVSConfig(damping=damping),
+                             template_from=template_from, roi_inset_px=inset)
     summary, records = run_episode(scen, tracker, loop_config, progress=False, keep_records=keep,
                                    tracker_settings={"warp": warp} if warp else None)
     summary["method"] = method
@@ -175,7 +179,8 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     seeds = config.episode_seeds
-    jobs = [(s, t, seed, config.steps, config.extra_steps, seed == seeds[0], config.camera, config.people, config.damping)
+    jobs = [(s, t, seed, config.steps, config.extra_steps, seed == seeds[0], config.camera, config.people, config.damping,
+             config.template_from, config.roi_inset_px)
             for s in config.scenarios for t in config.trackers for seed in seeds]
     os.environ["HVS_WORKERS"] = str(config.workers)
     episodes, traces = {}, {}

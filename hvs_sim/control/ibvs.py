@@ -23,6 +23,9 @@ DOF_NAMES = ("vx", "vy", "vz", "wx", "wy", "wz")
 SIMILARITY_DOFS = ("vx", "vy", "vz", "wz")  # what a similarity tracker's corners observe
 RANK_TOL = 1e-6  # singular values below this × the largest count as zero (rank of L)
 CONTROLLERS = ("ibvs", "pbvs")
+# where the tracked features' template comes from (LoopConfig.template_from): the run's first frame ("start"),
+# or an image taken with the camera at the reference pose before the run ("goal": teach-by-showing)
+TEMPLATE_VIEWS = ("start", "goal")
 # measured on the 6-DOF servo benchmark (seeds 200-205, tuned on another start): tracked corners' 0.1-0.3 px
 # noise through L⁺ (cond ~1100) kept the undamped loop 10-17 px off; damped, 0.22-0.28 px
 TRACKED_6DOF_DAMPING = 0.005

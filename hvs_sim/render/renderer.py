@@ -56,9 +56,11 @@ class GroundTruth:
 class Renderer:
     """Renders the scene's eye camera. Segmentation renders give the exact occlusion fraction."""
 
-    def __init__(self, scene: Scene):
+    def __init__(self, scene: Scene, people: bool = True):
+        """people=False: the people are left out of the RGB frames (a capture of the clear scene, such as
+        the goal image a user takes before servoing); ground truth and segmentation are unchanged."""
         check_not_forked_after_rendering()
-        self.scene = scene
+        self.scene, self.people = scene, people
         cam = scene.scenario.camera
         self.width, self.height = cam.width, cam.height
         self.K = self.intrinsics_of(scene.scenario)
@@ -96,7 +98,7 @@ class Renderer:
 
     def _render(self) -> np.ndarray:
         # the Camera returns a flipped view of its own buffer, which the next render overwrites
-        return self._camera().render(scene_option=self._show_people).copy()
+        return self._camera().render(scene_option=self._show_people if self.people else self._hide_people).copy()
 
     def rgb(self) -> np.ndarray:
         """H×W×3 uint8 RGB frame as the camera delivers it (the raw render for the `ideal` model)."""
@@ -151,7 +153,7 @@ class Renderer:
 
     def _moving_points_px(self) -> np.ndarray:
         pts = [self.scene.target_center_world()]
-        for pos, R in self.scene.people_poses():
+        for pos, R in (self.scene.people_poses() if self.people else []):
             pts += [pos + R @ np.array([0.0, 0.0, z]) for z in PERSON_PROBE_HEIGHTS]
         return project(self.K, self.camera_pose(), np.array(pts))
 

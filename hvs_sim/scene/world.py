@@ -204,21 +204,48 @@ class Scene:
         if dt <= 0:
             yield
             return
-        d = self.physics.data
-        saved = [(a, getattr(d, a).copy()) for a in ("qpos", "mocap_pos", "mocap_quat", "qacc_warmstart")]
-        time_now = float(d.time)
-        try:
+        with self._restored(("qpos", "mocap_pos", "mocap_quat", "qacc_warmstart")):
             if self.is_arm:
                 joints = self.physics.bind(self.rig.joints)
                 a = min(1.0, dt * self.scenario.fps)
                 joints.qpos = joints.qpos + a * (self._q_prev - joints.qpos)
             self._apply_kinematics(self.time - dt)
             yield
+
+    @contextmanager
+    def _restored(self, fields: tuple[str, ...]):
+        """Physics data `fields`, the time and the previous frame's joints as they are now, put back on exit."""
+        d = self.physics.data
+        saved = [(a, getattr(d, a).copy()) for a in fields]
+        time_now, q_prev = float(d.time), getattr(self, "_q_prev", None)
+        try:
+            yield
         finally:
             for name, value in saved:
                 getattr(d, name)[:] = value
-            d.time = time_now
+            d.time, self._q_prev = time_now, q_prev
             self.physics.forward()
+
+    @contextmanager
+    def posed(self, q: np.ndarray):
+        """The arm held still at joint angles q (at the current time); everything is restored on exit.
+
+        For a still capture away from the episode's state: the goal image a user takes with the camera
+        at the reference pose before servoing (`reference_configuration`)."""
+        if not self.is_arm:
+            raise ConfigError("posing the arm needs mount='arm'")
+        with self._restored(("qpos", "qvel", "qacc_warmstart")):
+            self.physics.bind(self.rig.joints).qpos = np.asarray(q, float)
+            self.physics.bind(self.rig.joints).qvel = 0.0
+            self._q_prev = np.asarray(q, float).copy()  # a blurred capture interpolates towards it: still
+            self.physics.forward()
+            yield
+
+    def reference_configuration(self) -> np.ndarray:
+        """Joint angles that put the camera at the reference pose (the arm's home configuration)."""
+        if not self.is_arm:
+            raise ConfigError("the reference configuration needs mount='arm'")
+        return _home_configuration(self)
 
     # ------------------------------------------------------------------ arm
 

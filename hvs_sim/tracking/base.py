@@ -12,9 +12,9 @@ from enum import StrEnum
 
 import numpy as np
 
-from hvs_sim.errors import StateError
+from hvs_sim.errors import InputError, StateError
 from hvs_sim.tracking.frames import check_frame, check_roi, roi_center, roi_corners
-from hvs_sim.tracking.warp import apply, local_affine, matrix_to_pose
+from hvs_sim.tracking.warp import apply, fit_similarity, local_affine, matrix_to_pose
 
 
 class Mode(StrEnum):
@@ -84,6 +84,32 @@ class Tracker:
         self._init(frame, roi)
         self._shape = frame.shape[:2]
         return self._track(Estimate(self.A, Mode.ALIGN, 0.0, 1.0, self.template_confidence), 0.0)
+
+    def seed(self, A) -> Track:
+        """Put the estimate at A (3×3 frame-from-template warp) for the next frame, which then aligns from it.
+
+        For a template taken from another image than the frames that follow (teach-by-showing: the goal
+        image, with the target's four corners marked in the first frame, `LoopConfig.template_from`).
+        A similarity tracker takes the similarity nearest A (least squares over the template's corners)."""
+        if self._shape is None:
+            raise StateError(f"{self.name}: seed() called before init(frame, roi)")
+        try:
+            A = np.array(A, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"seed warp must be a 3×3 array of numbers, got {type(A).__name__}") from None
+        if A.shape != (3, 3) or not _finite(A) or abs(A[2, 2]) < 1e-12:
+            raise InputError(f"seed warp must be a finite 3×3 matrix with A[2, 2] != 0, got shape {A.shape}")
+        A = A / A[2, 2]
+        if self.warp == "similarity":
+            A = fit_similarity(self.corners0, apply(A, self.corners0))
+        if abs(np.linalg.det(local_affine(A, self.center0)[:2, :2])) <= 1e-6:
+            raise InputError("seed warp is singular at the template (it folds the template to a line or a point)")
+        self.A = A
+        self._seed(A)
+        return self._track(Estimate(self.A, Mode.PREDICT, 0.0, 0.0, self.template_confidence), 0.0)
+
+    def _seed(self, A: np.ndarray) -> None:
+        """Hook: a method that keeps its own estimate beside `self.A` moves it to A (seed)."""
 
     def update(self, frame) -> Track:
         if self._shape is None:

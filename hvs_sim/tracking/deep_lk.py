@@ -21,16 +21,22 @@ class DeepLKTracker(Tracker):
         self.config = config = config or DeepLKConfig()
         self.aligner = Aligner(config)
         self.warp = config.warp
+        self._seeded = False  # the next frame aligns from the seed (Tracker.seed) too, not only global matches
 
     def _init(self, frame, roi) -> None:
+        self._seeded = False
         self.aligner.set_template(frame, roi)
         self.template_confidence = check_trackable(self.aligner.template, self.config.min_trackability,
                                                    self.config.allow_untrackable, self.name)
 
+    def _seed(self, A) -> None:
+        self._seeded = True
+
     def _update(self, frame) -> Estimate:
         al = self.aligner
         work = al.work_image(frame)
-        m, A_work, _, _ = al.coarse(work, self.A, keep_current=False)
+        m, A_work, _, _ = al.coarse(work, self.A, keep_current=self._seeded)
+        self._seeded = False
         if m.score <= 0.0:
             return Estimate(self.A, Mode.LOST, 1.0, m.score)
         A_new = al.align(work, A_work).A_work

@@ -86,6 +86,17 @@ def roi_from_corners(corners: np.ndarray) -> tuple[int, int, int, int]:
     return inner
 
 
+def inset_roi(roi, px: int) -> tuple[int, int, int, int]:
+    """The ROI `px` pixels inside its edges on every side; InputError when that leaves less than MIN_ROI."""
+    x, y, w, h = roi
+    if px == 0:  # nothing to take away: a box too small for a tracker is for the tracker's init to refuse
+        return x, y, w, h
+    if w - 2 * px < MIN_ROI or h - 2 * px < MIN_ROI:
+        raise InputError(f"an ROI of {w}×{h} px inset by {px} px on each side is under the {MIN_ROI}×{MIN_ROI} px "
+                         "minimum: the target is too small in the image for that inset")
+    return x + px, y + px, w - 2 * px, h - 2 * px
+
+
 INSCRIBED_GAIN = 1.2  # the centred box replaces the inner-edge box only when clearly larger (large rolls)
 
 

@@ -204,6 +204,13 @@ class HybridTracker(Tracker):
         for s in self.sources:
             s.reset(self.state)
 
+    def _seed(self, A: np.ndarray) -> None:
+        """The estimate moves to A; the motion sources start again from it (the keyframe stays the template's
+        image, where the identity holds)."""
+        self.state.A = A.copy()
+        for s in self.sources:
+            s.reset(self.state)
+
     def _occlusion_at(self, frame: np.ndarray, A_seed: np.ndarray, grey_op: float) -> float:
         """OP_t at the chosen seed: in colour when configured (occlusion.py), else the grey value."""
         if self.template_rgb is None:

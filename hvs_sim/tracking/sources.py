@@ -76,7 +76,7 @@ class KeyframeAnchorSource:
 
     def reset(self, state: HybridState) -> None:
         self.anchor.reset()
-        self.anchor.add(state.keyframe[0], np.eye(3), 0)
+        self.anchor.add(state.keyframe[0], self.aligner.to_work(state.keyframe[1]), 0)
 
     def propose(self, work, state):
         if state.drift_run == 0:
@@ -168,7 +168,7 @@ class PredictorSource:
 
     def reset(self, state):
         self.predictor.reset()
-        self.predictor.observe(np.zeros(2))
+        self.predictor.observe(_translation(state.A, state.center0))
 
     def propose(self, work, state):
         if state.predict_run + 1 > self.max_frames:

@@ -12,7 +12,7 @@ import math
 import cv2
 import numpy as np
 
-from hvs_sim.errors import choice_error
+from hvs_sim.errors import InputError, choice_error
 
 WARPS = ("similarity", "homography")  # the warp models a tracker can estimate (`warp=` setting)
 WARP_PARAMS = {"similarity": 4, "homography": 8}
@@ -125,3 +125,12 @@ def fit_similarity(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     A[:2, :2] = R
     A[:2, 2] = md - R @ ms
     return A
+
+
+def perspective_transform(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+    """The homography (3×3, A[2, 2] = 1) taking four points src → dst, in float64 (cv2.getPerspectiveTransform
+    works in float32: ~1e-4 px)."""
+    H, _ = cv2.findHomography(np.asarray(src, np.float64), np.asarray(dst, np.float64), 0)
+    if H is None or not np.all(np.isfinite(H)):
+        raise InputError("no homography takes these four points to the others (three of them lie on a line)")
+    return H / H[2, 2]
