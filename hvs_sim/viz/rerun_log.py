@@ -39,6 +39,7 @@ PATH_MAX_POINTS = 2000  # ... and is thinned to half when it has more points tha
 # background=True: at most this many steps wait for the writer thread; a loop that outruns it waits (so memory
 # stays bounded) and that wait is what the loop's "log" stage then measures
 LOG_QUEUE_STEPS = 4
+MOVED_TOL = 1e-6  # m (positions) and rotation-matrix entries: an entity moved less than this is not logged again
 
 
 def _quat_xyzw(R: np.ndarray) -> list[float]:
@@ -103,6 +104,7 @@ class RerunLogger:
         self._queue: queue.Queue | None = None
         self._writer: threading.Thread | None = None  # started by the first log_step, stopped by drain()
         self.path: list[np.ndarray] = []
+        self._last: dict[str, np.ndarray] = {}  # what each still-or-moving entity was last logged with (_moved)
         self.plots = ScalarColumns(rec, "step", "sim_time")  # plots/*: sent every PLOT_FLUSH_STEPS steps
         self._guard(self._static, K, width, height, target_world)
         if config is not None:
@@ -198,6 +200,17 @@ class RerunLogger:
             self.path = self.path[:-1:2] + self.path[-1:]
         return True
 
+    def _moved(self, entity: str, *values) -> bool:
+        """Whether `entity` differs (by more than MOVED_TOL) from what it was last logged with; if so, remember
+        it. A still arm, camera or person, and the constant s*, are logged once, not every step: a viewer shows
+        an entity's latest value, and a converged run stands still for most of its steps."""
+        v = np.concatenate([np.ravel(np.asarray(x, float)) for x in values]) if values else np.zeros(0)
+        last = self._last.get(entity)
+        if last is not None and last.shape == v.shape and np.all(np.abs(last - v) <= MOVED_TOL):
+            return False
+        self._last[entity] = v
+        return True
+
     def log_step(self, r: StepRecord) -> None:
         if not self.background:
             self._guard(self._step, r)
@@ -214,7 +227,8 @@ class RerunLogger:
         rec = self.rec
         rec.set_time("step", sequence=r.step)
         rec.set_time("sim_time", duration=r.time)
-        rec.log("world/camera", rr.Transform3D(translation=r.camera.t, mat3x3=r.camera.R))
+        if self._moved("world/camera", r.camera.t, r.camera.R):
+            rec.log("world/camera", rr.Transform3D(translation=r.camera.t, mat3x3=r.camera.R))
         if self._extend_path(r.camera.t):
             rec.log("world/trajectory", rr.LineStrips3D([np.array(self.path)], colors=[80, 140, 255]))
         if r.frame is not None:
@@ -224,11 +238,13 @@ class RerunLogger:
         if np.all(np.isfinite(r.features)):
             rec.log("world/camera/image/tracked", rr.LineStrips2D(closed(r.features + off), colors=[0, 255, 0], radii=1.5))
         rec.log("world/camera/image/ground_truth", rr.LineStrips2D(closed(r.gt_features + off), colors=[255, 255, 255]))
-        rec.log("world/camera/image/desired", rr.LineStrips2D(closed(r.desired + off), colors=[255, 60, 60]))
+        if self._moved("world/camera/image/desired", r.desired):
+            rec.log("world/camera/image/desired", rr.LineStrips2D(closed(r.desired + off), colors=[255, 60, 60]))
         if r.arm is not None:
             for k, (pos, R) in enumerate(zip(*r.arm)):
-                rec.log(f"world/arm/mesh_{k}", rr.Transform3D(translation=pos, mat3x3=R))
-        if r.people:
+                if self._moved(f"world/arm/mesh_{k}", pos, R):
+                    rec.log(f"world/arm/mesh_{k}", rr.Transform3D(translation=pos, mat3x3=R))
+        if r.people and self._moved("world/occluder", *(x for pose in r.people for x in pose)):
             centers = [p + R @ np.array([0.0, 0.0, 0.9]) for p, R in r.people]
             quats = [rr.Quaternion(xyzw=_quat_xyzw(R)) for _, R in r.people]
             rec.log("world/occluder", rr.Boxes3D(centers=centers, half_sizes=[[0.15, 0.3, 0.9]] * len(centers),
