@@ -118,7 +118,7 @@ def cmd_run(args) -> int:
     scenario = _scenario_from_args(args)
     if args.start_offset is not None:
         scenario = dataclasses.replace(scenario, start_offset=parse_start_offset(args.start_offset))
-    config = LoopConfig(steps=args.steps, controller=args.controller, evaluate=not args.no_eval,
+    config = LoopConfig(steps=args.steps, controller=args.controller, evaluate=not args.no_eval, pipeline=args.pipeline,
                         keep_frames=bool(args.rrd or args.spawn or args.figures), template_from=args.template_from,
                         roi_inset_px=args.roi_inset)
     summary, _ = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,
@@ -456,6 +456,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="cut the template this many pixels inside the target's outline, which renders differently "
                         "from view to view (default: 8 with a goal template, fewer for a target too small for it; 0 "
                         "with a start template)")
+    p.add_argument("--pipeline", action="store_true",
+                   help="track each frame in a second thread while the physics steps and the next frame renders: "
+                        "about the longer of the two per step instead of their sum, at one frame of actuation latency")
     p.add_argument("--no-eval", action="store_true",
                    help="skip the evaluation render (the true occlusion, one segmentation render a step); errors "
                         "and pose errors, which need no render, are still recorded. Control never reads ground truth")

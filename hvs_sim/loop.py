@@ -9,9 +9,11 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
+import torch
 
 from hvs_sim.camera_model import undistort_points
 from hvs_sim.control.arm import ArmDriver
@@ -43,6 +45,7 @@ IN_VIEW_MARGIN_PX = 2.0  # the target's corners must be this far inside the imag
 # weakly (a 1° tilt traded against 14 mm of sideways shift moves its corners by ~0.1 px), so the
 # bound is stated beside the 0.5 px image threshold rather than derived from it
 CONVERGE_MM, CONVERGE_DEG = 10.0, 1.0
+PIPELINE_TORCH_THREADS = 1  # LoopConfig.pipeline: the tracker's torch threads (the renderer has the other core)
 GOAL_ROI_INSET_PX = 8  # LoopConfig.roi_inset_px's default with a goal template (6-DOF servo benchmark, README)
 
 
@@ -73,6 +76,9 @@ class LoopConfig:
     # tracked corners 0.3–0.5 px off near the goal without an inset, 0.02–0.05 px with 8 px. None:
     # GOAL_ROI_INSET_PX with a goal template (less where the box would fall under MIN_ROI), 0 with a start one
     roi_inset_px: int | None = None
+    # track frame k in a second thread while the physics steps and frame k + 1 renders (ServoLoop.run): the step
+    # costs about the longer of the two instead of their sum, and frame k's command acts one frame later
+    pipeline: bool = False
 
     def __post_init__(self):
         if self.controller not in CONTROLLERS:
@@ -119,6 +125,9 @@ class StepRecord:
     target_in_view: bool = True  # all four true target corners inside the image
     damping: float = 0.0  # the IBVS damping the loop used (IBVSConfig.damping, resolved)
     template: tuple[str, int] = ("start", 0)  # where the template came from and its inset (LoopConfig, resolved)
+    # wall ms of the step when its stages overlap (LoopConfig.pipeline; the consumer's time between two steps
+    # included); None: the stages ran one after another and their sum is the step's time
+    wall_ms: float | None = None
     controlled_pose_error: tuple[float, float] = (0.0, 0.0)  # (mm, deg) of pose_error in those DOFs
     people: list = field(default_factory=list)  # (feet position, orientation) of each person
     arm: tuple | None = None  # (positions (k, 3), orientations (k, 3, 3)) of the arm's meshes (Scene.arm_meshes)
@@ -229,18 +238,53 @@ class ServoLoop:
     def __iter__(self) -> Iterator[StepRecord]:
         return self.run()
 
+    def _capture(self) -> _Capture:
+        """Everything a step reads from the scene at its state: the frame and the truth that grades it."""
+        r, scene, timings = self.renderer, self.scene, {}
+        t0 = time.perf_counter()
+        frame = r.rgb()
+        timings["render"] = 1e3 * (time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        gt = r.ground_truth(occlusion=self.config.evaluate, counts=False)
+        timings["ground_truth"] = 1e3 * (time.perf_counter() - t0)
+        depths = self.true_depths() if self.ibvs_config.depth == "true" else None  # only when asked
+        return _Capture(frame, gt, scene.time, scene.pose_error(), scene.people_poses(), scene.arm_poses(), depths,
+                        timings)
+
+    def _track(self, frame: np.ndarray, first: Track | None) -> Track:
+        """The tracker's corners for a frame (`first`: the init's own track of step 0, when it has one)."""
+        track = first if first is not None else self.tracker.update(frame)
+        if not np.all(np.isfinite(track.corners)):
+            raise FloatingPointError("tracker returned non-finite corners")
+        return track
+
     def run(self) -> Iterator[StepRecord]:
+        """The episode's steps. With `LoopConfig.pipeline` the tracker works on frame k in a second thread while
+        this one steps the physics and renders frame k + 1: frame k's command then acts from step k + 1 (one frame
+        of actuation latency, as a real camera's read-out and processing add), and the step takes about the longer
+        of the two, not their sum."""
+        cfg = self.config
+        pool = ThreadPoolExecutor(1, thread_name_prefix="hvs_sim-track") if cfg.pipeline else None
+        threads = torch.get_num_threads()
+        try:
+            if pool is not None:  # one core each: the renderer's and the tracker's
+                torch.set_num_threads(PIPELINE_TORCH_THREADS)
+            yield from self._steps(pool)
+        finally:
+            if pool is not None:
+                pool.shutdown(wait=True, cancel_futures=True)
+                torch.set_num_threads(threads)
+
+    def _steps(self, pool: ThreadPoolExecutor | None) -> Iterator[StepRecord]:
         scene, r, cfg = self.scene, self.renderer, self.config
         flag0 = roi0 = desired = controller = None
         inset = 0
+        qdot_prev = np.zeros(len(self.arm.limits.qdot_max))  # pipelined: the command that acts this step
+        cap = self._capture()
+        t_step = time.perf_counter()
         for step in range(cfg.steps):
-            timings: dict[str, float] = {}
-            t0 = time.perf_counter()
-            frame = r.rgb()
-            timings["render"] = 1e3 * (time.perf_counter() - t0)
-            t0 = time.perf_counter()
-            gt: GroundTruth = r.ground_truth(occlusion=cfg.evaluate, counts=False)
-            timings["ground_truth"] = 1e3 * (time.perf_counter() - t0)
+            timings = dict(cap.timings)
+            frame, gt = cap.frame, cap.gt
             if step == 0:
                 # the template's image and the target's corners in it: this first frame, or the goal image
                 template_frame, flag0 = (frame, gt.corners) if self.template_from == "start" else self.goal_image()
@@ -252,7 +296,7 @@ class ServoLoop:
                 law = IBVSController if cfg.controller == "ibvs" else PBVSController
                 controller = law(r.K, self._pinhole(desired), self.desired_depth, self.ibvs_config, self.dofs)
             gt_features = r.transfer(flag0, gt.corners, roi0)
-            fault, track = None, None
+            fault, track, init_track = None, None, None
             t0 = time.perf_counter()
             if step == 0 and self.tracker is not None:
                 try:  # without a template there is nothing to servo on: a failed init ends the run
@@ -263,48 +307,79 @@ class ServoLoop:
                 except Exception as exc:  # any cause: the run cannot go on, and says why
                     raise StateError(f"tracker {self.tracker_name!r} could not start on the first frame (ROI {roi}): "
                                      f"{exc}") from exc
+            pending = None
+            if self.tracker is not None and pool is not None:
+                pending = pool.submit(self._track, frame, init_track)
+            t_track = time.perf_counter()
+            nxt = None
+            if pool is not None and step + 1 < cfg.steps:  # meanwhile: physics with the command due, the next frame
+                t1 = time.perf_counter()
+                scene.advance(qdot_prev)
+                physics_ms = 1e3 * (time.perf_counter() - t1)
+                nxt = self._capture()
+                timings.update(nxt.timings, physics=physics_ms)
             try:
                 if self.tracker is None:
                     features, mode = gt_features, "align"
                 else:
-                    track = init_track if step == 0 and init_track is not None else self.tracker.update(frame)
+                    track = pending.result() if pending is not None else self._track(frame, init_track)
                     features, mode = track.corners, track.mode
-                    if not np.all(np.isfinite(features)):
-                        raise FloatingPointError("tracker returned non-finite corners")
             except Exception as exc:  # noqa: BLE001 - a tracker fault must not crash the run: stop the arm and record it
                 fault, features, mode = f"{type(exc).__name__}: {exc}", gt_features * np.nan, "fault"
-            timings["track"] = 1e3 * (time.perf_counter() - t0)
+            if pending is None:
+                timings["track"] = 1e3 * (time.perf_counter() - t0)
+            else:  # the init here, then the tracker's own time beside the physics and the next render
+                timings["track"] = 1e3 * (t_track - t0) + (track.ms if track is not None else 0.0)
             t0 = time.perf_counter()
             ctrl = None
             if fault is None:
                 try:  # PBVS cannot take a pose from a degenerate quad: like a tracker fault, stop the arm and record it
-                    depths = self.true_depths() if self.ibvs_config.depth == "true" else None  # only when asked
-                    ctrl = controller.compute(self._pinhole(features), depths, mode)
+                    ctrl = controller.compute(self._pinhole(features), cap.depths, mode)
                 except HvsError as exc:
                     fault, mode = f"{type(exc).__name__}: {exc}", "fault"
             if ctrl is not None:
                 twist, gain, sat, sv = ctrl.twist, ctrl.gain, ctrl.saturated, ctrl.singular_values
             else:
                 twist, gain, sat, sv = np.zeros(6), 0.0, False, np.zeros(0)
-            cmd = self.arm.command(twist)
+            cmd = self.arm.command(twist)  # at the arm's configuration now (pipelined: the next step's)
             timings["control"] = 1e3 * (time.perf_counter() - t0)
-            pose_err = scene.pose_error()
+            if pool is None:
+                t0 = time.perf_counter()
+                scene.advance(cmd.qdot)
+                timings["physics"] = 1e3 * (time.perf_counter() - t0)
+            now = time.perf_counter()
             record = StepRecord(
-                step=step, time=scene.time, frame=frame if cfg.keep_frames else None, track=track, mode=mode,
+                step=step, time=cap.time, frame=frame if cfg.keep_frames else None, track=track, mode=mode,
                 features=features, gt_features=gt_features, desired=desired,
                 error_px=float(np.linalg.norm(gt_features - desired, axis=1).mean()),
                 tracker_error_px=float(np.linalg.norm(features - gt_features, axis=1).mean()) if fault is None else float("nan"),
                 occlusion=gt.occlusion, twist=twist, qdot=cmd.qdot, q=gt.joint_positions, camera=gt.camera, gain=gain,
                 saturated=sat or cmd.velocity_saturated, limit_blocked=cmd.limit_blocked, fault=fault, timings=timings,
-                pose_error=pose_err, singular_values=sv, dofs=self.dofs, damping=self.ibvs_config.damping,
+                pose_error=cap.pose_error, singular_values=sv, dofs=self.dofs, damping=self.ibvs_config.damping,
                 template=(self.template_from, inset),
                 target_in_view=corners_in_view(gt.corners, self.scenario.camera),
-                controlled_pose_error=self.controlled_pose_error(pose_err), people=scene.people_poses(),
-                arm=scene.arm_poses())
-            t0 = time.perf_counter()
-            scene.advance(cmd.qdot)
-            timings["physics"] = 1e3 * (time.perf_counter() - t0)
+                controlled_pose_error=self.controlled_pose_error(cap.pose_error), people=cap.people, arm=cap.arm,
+                wall_ms=1e3 * (now - t_step) if pool is not None else None)
             yield record
+            t_step = time.perf_counter() if pool is None else now  # pipelined: the consumer's time counts too
+            if pool is not None:
+                qdot_prev, cap = cmd.qdot, nxt
+            elif step + 1 < cfg.steps:
+                cap = self._capture()
+
+
+@dataclass
+class _Capture:
+    """What a step reads from the scene at its state (ServoLoop._capture)."""
+
+    frame: np.ndarray
+    gt: GroundTruth
+    time: float
+    pose_error: np.ndarray
+    people: list
+    arm: tuple | None
+    depths: np.ndarray | None
+    timings: dict[str, float]
 
 
 MODES = ("align", "predict", "lost", "fault")  # a record's mode, in the order its code (index) is plotted and stored
@@ -339,7 +414,7 @@ class RunStats:
         self.mode[k] = MODES.index(r.mode) if r.mode in MODES else MODES.index("fault")
         for stage, ms in r.timings.items():
             self.timings.setdefault(stage, np.zeros(len(self.time)))[k] = ms
-        self.step_ms[k] = sum(r.timings.values())
+        self.step_ms[k] = sum(r.timings.values()) if r.wall_ms is None else r.wall_ms
         if r.fault:
             self.faults.add(r.fault)
         self.saturated += bool(r.saturated)
