@@ -125,8 +125,10 @@ class StepRecord:
     target_in_view: bool = True  # all four true target corners inside the image
     damping: float = 0.0  # the IBVS damping the loop used (IBVSConfig.damping, resolved)
     template: tuple[str, int] = ("start", 0)  # where the template came from and its inset (LoopConfig, resolved)
-    # wall ms of the step when its stages overlap (LoopConfig.pipeline; the consumer's time between two steps
-    # included); None: the stages ran one after another and their sum is the step's time
+    # wall ms of the step when its stages overlap (LoopConfig.pipeline): from the end of the step before (so the
+    # consumer's time, e.g. logging, counts in the next step) to this record; a pipelined step's render,
+    # ground_truth and physics are those of the next frame, made while this one was tracked (0 on the last step).
+    # None: the stages ran one after another and their sum is the step's time
     wall_ms: float | None = None
     controlled_pose_error: tuple[float, float] = (0.0, 0.0)  # (mm, deg) of pose_error in those DOFs
     people: list = field(default_factory=list)  # (feet position, orientation) of each person
@@ -224,7 +226,7 @@ class ServoLoop:
     def default_inset(self, roi) -> int:
         """LoopConfig.roi_inset_px=None: GOAL_ROI_INSET_PX for a goal template, less where the box would fall
         under MIN_ROI (a target small in the image); 0 for a start template, whose box is thin at large rolls."""
-        if self.template_from == "start":
+        if self.template_from == "start" or self.tracker is None:  # the oracle's features need no inset
             return 0
         return int(min(GOAL_ROI_INSET_PX, max(0, (min(roi[2], roi[3]) - MIN_ROI) // 2)))
 
@@ -247,7 +249,9 @@ class ServoLoop:
         t0 = time.perf_counter()
         gt = r.ground_truth(occlusion=self.config.evaluate, counts=False)
         timings["ground_truth"] = 1e3 * (time.perf_counter() - t0)
+        t0 = time.perf_counter()
         depths = self.true_depths() if self.ibvs_config.depth == "true" else None  # only when asked
+        timings["depths"] = 1e3 * (time.perf_counter() - t0)  # control's input: counted as control below
         return _Capture(frame, gt, scene.time, scene.pose_error(), scene.people_poses(), scene.arm_poses(), depths,
                         timings)
 
@@ -280,10 +284,11 @@ class ServoLoop:
         flag0 = roi0 = desired = controller = None
         inset = 0
         qdot_prev = np.zeros(len(self.arm.limits.qdot_max))  # pipelined: the command that acts this step
-        cap = self._capture()
         t_step = time.perf_counter()
+        cap = self._capture()
         for step in range(cfg.steps):
             timings = dict(cap.timings)
+            depths_ms = timings.pop("depths")
             frame, gt = cap.frame, cap.gt
             if step == 0:
                 # the template's image and the target's corners in it: this first frame, or the goal image
@@ -305,19 +310,24 @@ class ServoLoop:
                         init_track = None
                         self.tracker.seed(perspective_transform(roi0, gt_features))
                 except Exception as exc:  # any cause: the run cannot go on, and says why
-                    raise StateError(f"tracker {self.tracker_name!r} could not start on the first frame (ROI {roi}): "
+                    where = "the first frame" if self.template_from == "start" else "the goal image and the first frame"
+                    raise StateError(f"tracker {self.tracker_name!r} could not start on {where} (template ROI {roi}): "
                                      f"{exc}") from exc
             pending = None
             if self.tracker is not None and pool is not None:
                 pending = pool.submit(self._track, frame, init_track)
             t_track = time.perf_counter()
             nxt = None
-            if pool is not None and step + 1 < cfg.steps:  # meanwhile: physics with the command due, the next frame
-                t1 = time.perf_counter()
-                scene.advance(qdot_prev)
-                physics_ms = 1e3 * (time.perf_counter() - t1)
-                nxt = self._capture()
-                timings.update(nxt.timings, physics=physics_ms)
+            if pool is not None:  # meanwhile: physics with the command due, the next frame (none after the last)
+                timings.update(render=0.0, ground_truth=0.0, physics=0.0)
+                depths_ms = 0.0
+                if step + 1 < cfg.steps:
+                    t1 = time.perf_counter()
+                    scene.advance(qdot_prev)
+                    physics_ms = 1e3 * (time.perf_counter() - t1)
+                    nxt = self._capture()
+                    depths_ms = nxt.timings["depths"]
+                    timings.update({k: v for k, v in nxt.timings.items() if k != "depths"}, physics=physics_ms)
             try:
                 if self.tracker is None:
                     features, mode = gt_features, "align"
@@ -326,7 +336,7 @@ class ServoLoop:
                     features, mode = track.corners, track.mode
             except Exception as exc:  # noqa: BLE001 - a tracker fault must not crash the run: stop the arm and record it
                 fault, features, mode = f"{type(exc).__name__}: {exc}", gt_features * np.nan, "fault"
-            if pending is None:
+            if pool is None:
                 timings["track"] = 1e3 * (time.perf_counter() - t0)
             else:  # the init here, then the tracker's own time beside the physics and the next render
                 timings["track"] = 1e3 * (t_track - t0) + (track.ms if track is not None else 0.0)
@@ -342,7 +352,7 @@ class ServoLoop:
             else:
                 twist, gain, sat, sv = np.zeros(6), 0.0, False, np.zeros(0)
             cmd = self.arm.command(twist)  # at the arm's configuration now (pipelined: the next step's)
-            timings["control"] = 1e3 * (time.perf_counter() - t0)
+            timings["control"] = 1e3 * (time.perf_counter() - t0) + depths_ms
             if pool is None:
                 t0 = time.perf_counter()
                 scene.advance(cmd.qdot)
@@ -356,7 +366,7 @@ class ServoLoop:
                 occlusion=gt.occlusion, twist=twist, qdot=cmd.qdot, q=gt.joint_positions, camera=gt.camera, gain=gain,
                 saturated=sat or cmd.velocity_saturated, limit_blocked=cmd.limit_blocked, fault=fault, timings=timings,
                 pose_error=cap.pose_error, singular_values=sv, dofs=self.dofs, damping=self.ibvs_config.damping,
-                template=(self.template_from, inset),
+                template=(self.template_from, int(inset)),
                 target_in_view=corners_in_view(gt.corners, self.scenario.camera),
                 controlled_pose_error=self.controlled_pose_error(cap.pose_error), people=cap.people, arm=cap.arm,
                 wall_ms=1e3 * (now - t_step) if pool is not None else None)
@@ -466,6 +476,7 @@ class RunStats:
         return {
             "controller": config.controller,
             "damping": self.first.damping,
+            "pipeline": config.pipeline,
             "template_from": self.first.template[0],
             "roi_inset_px": self.first.template[1],
             "controlled_dofs": list(final.dofs),

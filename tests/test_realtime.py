@@ -78,6 +78,33 @@ def test_pipelined_loop_tracks_in_another_thread_acts_one_frame_later_and_conver
     assert all(np.array_equal(a.features, b.features) and np.array_equal(a.q, b.q) for a, b in zip(piped, again))
 
 
+def test_pipelined_loop_records_a_tracker_fault_and_gives_torch_its_threads_back_when_stopped(monkeypatch):
+    import torch
+
+    from hvs_sim.tracking.base import Tracker
+
+    update = Tracker.update
+
+    def failing(self, frame):
+        if self._calls == 2:
+            raise RuntimeError("tracker broke")
+        self._calls += 1
+        return update(self, frame)
+
+    monkeypatch.setattr(Tracker, "_calls", 0, raising=False)
+    monkeypatch.setattr(Tracker, "update", failing)
+    threads = torch.get_num_threads()
+    loop = ServoLoop(make_scenario("walk_by", mount="arm", camera=SMALL), "deep_lk",
+                     LoopConfig(steps=50, keep_frames=False, pipeline=True))
+    run = iter(loop)
+    recs = [next(run) for _ in range(5)]
+    # record 0 is the init's own track; updates 1 and 2 align, update 3 raises in the worker thread
+    assert [r.mode for r in recs][:4] == ["align", "align", "align", "fault"] and "tracker broke" in recs[3].fault
+    assert np.all(recs[3].twist == 0) and torch.get_num_threads() == 1
+    run.close()  # stopped mid-run, as on Ctrl-C: the worker ends and torch has its threads back
+    assert torch.get_num_threads() == threads
+
+
 def test_one_arm_driver_serves_the_loop_the_env_and_the_training_data(monkeypatch):
     calls = []
     command = ArmDriver.command

@@ -289,7 +289,8 @@ def test_ecc_brings_back_a_homography_that_feature_lk_leaves_pixels_off_on_a_wea
             true = cv2.perspectiveTransform(roi_corners(ROI)[None].astype(np.float64), Hm)[0]
             errs.append(np.linalg.norm(tk.corners - true, axis=1).max())
         out[refine] = np.array(errs)
-    # warp 1: LK ends 4.4 px (2.2 work px) off, within ECC's reach: refined to < 0.5 px. Warps 0 and 2 end 7–8 px
-    # off, beyond the cap, and stay as LK left them (an occluder's pull is what the cap is for)
+    # warp 1: LK ends 4.4 px off at the ROI's corners, and ECC's move, measured at the template's corner pixels in
+    # work px, stays within the cap: refined to < 0.5 px. Warps 0 and 2 end 7–8 px off, beyond the cap, and stay as
+    # LK left them (an occluder's pull is what the cap is for)
     assert out[False][1] > 4.0 and out[True][1] < 0.5, out
     assert np.all(out[True] <= out[False] + 1e-9) and out[False].min() > 2.0, out

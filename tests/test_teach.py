@@ -15,7 +15,7 @@ from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 from hvs_sim.scene.world import Scene
 from hvs_sim.tracking import make_tracker
-from hvs_sim.tracking.frames import MIN_ROI, inset_roi, roi_corners, roi_from_corners
+from hvs_sim.tracking.frames import inset_roi, roi_corners, roi_from_corners
 from hvs_sim.tracking.warp import apply, perspective_transform
 
 H, W = 480, 640
@@ -61,10 +61,16 @@ def test_a_similarity_tracker_takes_the_nearest_similarity_and_bad_seeds_are_ref
     tracker.seed(_warp_by_corners(np.array([[2, 0], [2, 0], [2, 1], [2, 1.0]])))
     A = tracker.A
     assert np.allclose(A[2], [0, 0, 1]) and np.isclose(A[0, 0], A[1, 1]) and np.isclose(A[0, 1], -A[1, 0])
+    behind = np.eye(3)
+    behind[2, 0] = -1.0 / ROI[0]  # w ≤ 0 at the template's right-hand corners
     for bad, what in ((np.eye(2), "3×3"), ([[1, 0, 0], [0, 1, 0], [0, 0, np.nan]], "finite"), ("x", "3×3"),
-                      (np.zeros((3, 3)) + np.eye(3) * [0, 0, 1], "singular")):
+                      (np.zeros((3, 3)) + np.eye(3) * [0, 0, 1], "singular"), (behind, "infinity or behind")):
         with pytest.raises(InputError, match=what):
             tracker.seed(bad)
+    for src, dst, what in ((roi_corners(ROI), [[0, 0], [1, 1], [2, 2], [0, 5]], "on a line"),
+                           (roi_corners(ROI)[:3], roi_corners(ROI)[:3], "4 finite points")):
+        with pytest.raises(InputError, match=what):
+            perspective_transform(src, dst)
 
 
 def test_inset_roi_and_loop_options_are_checked():
@@ -87,6 +93,9 @@ def test_posed_scene_puts_the_camera_at_the_reference_and_restores_the_episode()
         assert np.abs(scene.pose_error()).max() < 1e-3  # mm and degrees
     assert np.array_equal(scene.joint_positions, before[0]) and np.allclose(scene.pose_error(), before[1])
     assert scene.time == before[2]
+    for bad in (np.zeros(3), np.full(6, np.nan), "x"):
+        with pytest.raises(InputError, match="joint angles"), scene.posed(bad):
+            pass
     handheld = Scene(make_scenario("clear", mount="handheld", camera=SMALL))
     with pytest.raises(ConfigError, match="mount='arm'"), handheld.posed(np.zeros(6)):
         pass
@@ -132,9 +141,14 @@ def test_the_template_view_and_inset_default_to_the_goal_for_six_dof_tracking_on
     assert ServoLoop(sc, "ecc", cfg, warp="homography").template_from == "goal"
     assert ServoLoop(sc, "ecc", cfg).template_from == "start"  # a similarity: 4 DOF, the paper's set-up
     assert ServoLoop(sc, "ground_truth", cfg).template_from == "start"
-    # the default inset is GOAL_ROI_INSET_PX, less where the box would fall under MIN_ROI (a small image)
+    # the default inset is GOAL_ROI_INSET_PX, less where the box would fall under MIN_ROI: at 320×240 the target's
+    # box in the goal image is 54×36 px, so 6 px keep it at 42×24
     loop = ServoLoop(sc, "ecc", cfg, warp="homography")
     rec = next(iter(loop))
     _, corners = loop.goal_image()
-    w, h = roi_from_corners(corners)[2:]
-    assert rec.template == ("goal", min(GOAL_ROI_INSET_PX, (min(w, h) - MIN_ROI) // 2)) and rec.template[1] >= 0
+    assert roi_from_corners(corners)[2:] == (54, 36) and rec.template == ("goal", 6) and GOAL_ROI_INSET_PX == 8
+    big = ServoLoop(make_scenario("clear", mount="arm", start_offset=TILTED), "ecc", cfg, warp="homography")
+    assert next(iter(big)).template == ("goal", GOAL_ROI_INSET_PX)
+    # the oracle's features take no inset, even from the goal image
+    oracle = ServoLoop(sc, "ground_truth", LoopConfig(steps=1, keep_frames=False, template_from="goal"))
+    assert next(iter(oracle)).template == ("goal", 0)

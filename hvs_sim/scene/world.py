@@ -11,7 +11,7 @@ import numpy as np
 from dm_control import mjcf
 from dm_control.utils import inverse_kinematics
 
-from hvs_sim.errors import ConfigError
+from hvs_sim.errors import ConfigError, InputError
 from hvs_sim.geometry import mat_to_quat, mujoco_to_opencv, offset_pose, opencv_to_mujoco, rotation_vector
 from hvs_sim.scene.flag_art import FLAG_NAMES
 from hvs_sim.scene.images import TARGET_MAX_ASPECT, crop_to_aspect, list_images, load_image
@@ -234,6 +234,13 @@ class Scene:
         at the reference pose before servoing (`reference_configuration`)."""
         if not self.is_arm:
             raise ConfigError("posing the arm needs mount='arm'")
+        n = len(self.rig.joints)
+        try:
+            q = np.asarray(q, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"q must be {n} joint angles (rad), got {type(q).__name__}") from None
+        if q.shape != (n,) or not np.all(np.isfinite(q)):
+            raise InputError(f"q must be {n} finite joint angles (rad), got shape {q.shape}")
         with self._restored(("qpos", "qvel", "qacc_warmstart")):
             self.physics.bind(self.rig.joints).qpos = np.asarray(q, float)
             self.physics.bind(self.rig.joints).qvel = 0.0

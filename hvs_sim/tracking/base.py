@@ -100,9 +100,12 @@ class Tracker:
         if A.shape != (3, 3) or not _finite(A) or abs(A[2, 2]) < 1e-12:
             raise InputError(f"seed warp must be a finite 3×3 matrix with A[2, 2] != 0, got shape {A.shape}")
         A = A / A[2, 2]
+        w = self.corners0 @ A[2, :2] + A[2, 2]
+        if np.any(w <= 0):
+            raise InputError("seed warp sends a template corner to infinity or behind the camera")
         if self.warp == "similarity":
             A = fit_similarity(self.corners0, apply(A, self.corners0))
-        if abs(np.linalg.det(local_affine(A, self.center0)[:2, :2])) <= 1e-6:
+        if not _finite(A) or not abs(np.linalg.det(local_affine(A, self.center0)[:2, :2])) > 1e-6:
             raise InputError("seed warp is singular at the template (it folds the template to a line or a point)")
         self.A = A
         self._seed(A)

@@ -130,7 +130,15 @@ def fit_similarity(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
 def perspective_transform(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     """The homography (3×3, A[2, 2] = 1) taking four points src → dst, in float64 (cv2.getPerspectiveTransform
     works in float32: ~1e-4 px)."""
-    H, _ = cv2.findHomography(np.asarray(src, np.float64), np.asarray(dst, np.float64), 0)
-    if H is None or not np.all(np.isfinite(H)):
-        raise InputError("no homography takes these four points to the others (three of them lie on a line)")
+    src, dst = (np.asarray(p, np.float64) for p in (src, dst))
+    if src.shape != (4, 2) or dst.shape != (4, 2) or not (np.all(np.isfinite(src)) and np.all(np.isfinite(dst))):
+        raise InputError(f"a perspective transform takes 4 finite points (4×2) to 4, got {src.shape} and {dst.shape}")
+    for pts in (src, dst):  # three on a line: no homography, or only a degenerate one
+        for i in range(4):
+            a, b, c = np.delete(pts, i, axis=0)
+            if abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])) < 1e-9 * max(np.ptp(pts), 1.0) ** 2:
+                raise InputError("no homography takes these four points to the others: three of them lie on a line")
+    H, _ = cv2.findHomography(src, dst, 0)
+    if H is None or not np.all(np.isfinite(H)) or abs(H[2, 2]) < 1e-12:
+        raise InputError("no homography takes these four points to the others")
     return H / H[2, 2]
