@@ -461,7 +461,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "about the longer of the two per step instead of their sum, at one frame of actuation latency")
     p.add_argument("--no-eval", action="store_true",
                    help="skip the evaluation render (the true occlusion, one segmentation render a step); errors "
-                        "and pose errors, which need no render, are still recorded. Control never reads ground truth")
+                        "and pose errors, which need no render, are still recorded. Control never reads ground truth (the "
+                        "target's corners in the first frame, which place the template or seed it, are the user's "
+                        "marking)")
     p.add_argument("--start-offset", default=None, metavar="DX,DY,DZ,ROLL,PITCH,YAW",
                    help="start pose relative to the reference pose, camera frame (metres, degrees; dz > 0 is "
                         "towards the target); write --start-offset=-0.03,... when the first value is negative; "

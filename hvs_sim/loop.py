@@ -45,7 +45,6 @@ IN_VIEW_MARGIN_PX = 2.0  # the target's corners must be this far inside the imag
 # weakly (a 1° tilt traded against 14 mm of sideways shift moves its corners by ~0.1 px), so the
 # bound is stated beside the 0.5 px image threshold rather than derived from it
 CONVERGE_MM, CONVERGE_DEG = 10.0, 1.0
-PIPELINE_TORCH_THREADS = 1  # LoopConfig.pipeline: the tracker's torch threads (the renderer has the other core)
 GOAL_ROI_INSET_PX = 8  # LoopConfig.roi_inset_px's default with a goal template (6-DOF servo benchmark, README)
 
 
@@ -271,8 +270,8 @@ class ServoLoop:
         pool = ThreadPoolExecutor(1, thread_name_prefix="hvs_sim-track") if cfg.pipeline else None
         threads = torch.get_num_threads()
         try:
-            if pool is not None:  # one core each: the renderer's and the tracker's
-                torch.set_num_threads(PIPELINE_TORCH_THREADS)
+            if pool is not None:  # a core left to the renderer (torch's setting is process-wide, restored below)
+                torch.set_num_threads(max(1, threads - 1))
             yield from self._steps(pool)
         finally:
             if pool is not None:
