@@ -223,7 +223,8 @@ def _check_bench_options(args) -> None:
                 raise ConfigError(f"{flag} applies to `bench track` only (the servo benchmark's camera is on the arm)")
         return
     for flag, value in (("--episodes", args.episodes), ("--damping", args.damping),
-                        ("--template-from", args.template_from), ("--roi-inset", args.roi_inset)):
+                        ("--template-from", args.template_from), ("--roi-inset", args.roi_inset),
+                        ("--extra-steps", args.extra_steps)):
         if value is not None:
             raise ConfigError(f"{flag} applies to `bench servo` only")
     if args.imagery == "natural":
@@ -333,6 +334,10 @@ def _cmd_bench_sim(args) -> int:
             given["template_from"] = args.template_from
         if args.roi_inset is not None:
             given["roi_inset_px"] = args.roi_inset
+        if args.extra_steps is not None:
+            if args.smoke:
+                raise ConfigError("--extra-steps and --smoke disagree: a smoke run has its own 30 steps; give one")
+            given["extra_steps"] = args.extra_steps
         cfg = ServoBenchConfig(workers=args.workers, camera=args.camera, people=args.people,
                                steps=30 if args.smoke else None, **given)
         summary = run_servo_bench(cfg, Path(args.out))
@@ -508,6 +513,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--template-from", default=None, choices=TEMPLATE_VIEWS,
                    help="servo only: where the tracker's template comes from (as `run --template-from`; default: goal "
                         "for tracked corners on six DOF, else start)")
+    p.add_argument("--extra-steps", type=int, default=None, metavar="N",
+                   help="servo only: steps each episode runs past its scenario's end (default 60)")
     p.add_argument("--roi-inset", type=int, default=None, metavar="PX",
                    help="servo only: cut the template this many pixels inside the target's outline (as `run "
                         "--roi-inset`; default: 8 with a goal template, 0 with a start one)")

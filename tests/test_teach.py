@@ -84,6 +84,12 @@ def test_inset_roi_and_loop_options_are_checked():
             LoopConfig(roi_inset_px=bad)
     assert main(["bench", "track", "--template-from", "goal"]) == 2
     assert main(["bench", "track", "--roi-inset", "4"]) == 2
+    assert main(["bench", "track", "--extra-steps", "40"]) == 2
+
+
+def test_bench_servo_extra_steps_is_checked(tmp_path):
+    assert main(["bench", "servo", "--smoke", "--extra-steps", "40", "--out", str(tmp_path / "a")]) == 2
+    assert main(["bench", "servo", "--extra-steps", "-1", "--out", str(tmp_path / "b")]) == 2
 
 
 def test_posed_scene_puts_the_camera_at_the_reference_and_restores_the_episode():
