@@ -328,16 +328,12 @@ def _cmd_bench_sim(args) -> int:
         if args.smoke:
             print(SMOKE_NOTE)
             given = {"trackers": ("ground_truth", "hybrid"), "scenarios": ("walk_by",), "episodes": 1, **given}
-        if args.damping is not None:
-            given["damping"] = args.damping
-        if args.template_from is not None:
-            given["template_from"] = args.template_from
-        if args.roi_inset is not None:
-            given["roi_inset_px"] = args.roi_inset
-        if args.extra_steps is not None:
-            if args.smoke:
-                raise ConfigError("--extra-steps and --smoke disagree: a smoke run has its own 30 steps; give one")
-            given["extra_steps"] = args.extra_steps
+        if args.extra_steps is not None and args.smoke:
+            raise ConfigError("--extra-steps and --smoke disagree: a smoke run has its own 30 steps; give one")
+        for opt, field in (("damping", "damping"), ("template_from", "template_from"), ("roi_inset", "roi_inset_px"),
+                           ("extra_steps", "extra_steps")):  # servo-only settings the user gave
+            if getattr(args, opt) is not None:
+                given[field] = getattr(args, opt)
         cfg = ServoBenchConfig(workers=args.workers, camera=args.camera, people=args.people,
                                steps=30 if args.smoke else None, **given)
         summary = run_servo_bench(cfg, Path(args.out))

@@ -198,12 +198,11 @@ class ServoLoop:
         # the DOFs the features observe: ground truth and a homography tracker give perspective corners
         self.warp = "homography" if self.tracker is None else self.tracker.warp
         self.dofs = tuple(config.ibvs.dofs or dofs_for(self.warp))
+        tracked_6dof = self.tracker is not None and len(self.dofs) == 6
         damping = config.ibvs.damping
         if damping is None:  # exact features need none; tracked ones on six DOF do (IBVSConfig.damping)
-            tracked_6dof = self.tracker is not None and len(self.dofs) == 6 and config.controller == "ibvs"
-            damping = TRACKED_6DOF_DAMPING if tracked_6dof else 0.0  # PBVS inverts no L: nothing to damp
+            damping = TRACKED_6DOF_DAMPING if tracked_6dof and config.controller == "ibvs" else 0.0  # PBVS: no L⁺
         self.ibvs_config = dataclasses.replace(config.ibvs, damping=damping)
-        tracked_6dof = self.tracker is not None and len(self.dofs) == 6
         self.template_from = config.template_from or ("goal" if tracked_6dof else "start")
 
     def controlled_pose_error(self, pose_error: np.ndarray) -> tuple[float, float]:
@@ -250,9 +249,9 @@ class ServoLoop:
         timings["ground_truth"] = 1e3 * (time.perf_counter() - t0)
         t0 = time.perf_counter()
         depths = self.true_depths() if self.ibvs_config.depth == "true" else None  # only when asked
-        timings["depths"] = 1e3 * (time.perf_counter() - t0)  # control's input: counted as control below
+        depths_ms = 1e3 * (time.perf_counter() - t0)
         return _Capture(frame, gt, scene.time, scene.pose_error(), scene.people_poses(), scene.arm_poses(), depths,
-                        timings)
+                        timings, depths_ms)
 
     def _track(self, frame: np.ndarray, first: Track | None) -> Track:
         """The tracker's corners for a frame (`first`: the init's own track of step 0, when it has one)."""
@@ -287,7 +286,7 @@ class ServoLoop:
         cap = self._capture()
         for step in range(cfg.steps):
             timings = dict(cap.timings)
-            depths_ms = timings.pop("depths")
+            depths_ms = cap.depths_ms
             frame, gt = cap.frame, cap.gt
             if step == 0:
                 # the template's image and the target's corners in it: this first frame, or the goal image
@@ -325,8 +324,8 @@ class ServoLoop:
                     scene.advance(qdot_prev)
                     physics_ms = 1e3 * (time.perf_counter() - t1)
                     nxt = self._capture()
-                    depths_ms = nxt.timings["depths"]
-                    timings.update({k: v for k, v in nxt.timings.items() if k != "depths"}, physics=physics_ms)
+                    depths_ms = nxt.depths_ms
+                    timings.update(nxt.timings, physics=physics_ms)
             try:
                 if self.tracker is None:
                     features, mode = gt_features, "align"
@@ -370,7 +369,7 @@ class ServoLoop:
                 controlled_pose_error=self.controlled_pose_error(cap.pose_error), people=cap.people, arm=cap.arm,
                 wall_ms=1e3 * (now - t_step) if pool is not None else None)
             yield record
-            t_step = time.perf_counter() if pool is None else now  # pipelined: the consumer's time counts too
+            t_step = now  # pipelined: the next step's wall time includes the consumer's time for this one
             if pool is not None:
                 qdot_prev, cap = cmd.qdot, nxt
             elif step + 1 < cfg.steps:
@@ -388,7 +387,8 @@ class _Capture:
     people: list
     arm: tuple | None
     depths: np.ndarray | None
-    timings: dict[str, float]
+    timings: dict[str, float]  # render, ground_truth
+    depths_ms: float  # the true depths (IBVSConfig.depth="true"): control's input, counted as control
 
 
 MODES = ("align", "predict", "lost", "fault")  # a record's mode, in the order its code (index) is plotted and stored

@@ -242,9 +242,9 @@ class Scene:
         if q.shape != (n,) or not np.all(np.isfinite(q)):
             raise InputError(f"q must be {n} finite joint angles (rad), got shape {q.shape}")
         with self._restored(("qpos", "qvel", "qacc_warmstart")):
-            self.physics.bind(self.rig.joints).qpos = np.asarray(q, float)
+            self.physics.bind(self.rig.joints).qpos = q
             self.physics.bind(self.rig.joints).qvel = 0.0
-            self._q_prev = np.asarray(q, float).copy()  # a blurred capture interpolates towards it: still
+            self._q_prev = q.copy()  # a blurred capture interpolates towards it: still
             self.physics.forward()
             yield
 

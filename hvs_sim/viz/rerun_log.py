@@ -97,7 +97,7 @@ class RerunLogger:
                  config: dict | None = None, wall: tuple | None = None, arm_meshes: list | None = None,
                  background: bool = False):
         """config: the run's set-up, logged as text at run/config; wall: (centre, R, half sizes) of the board;
-        arm_meshes: (vertices, triangles, RGBA) per arm mesh (Scene.arm_meshes), posed every step."""
+        arm_meshes: (vertices, triangles, RGBA) per arm mesh (Scene.arm_meshes), posed at the steps where they moved."""
         self.rec = rec
         self.failed = False
         self.background = background
