@@ -37,6 +37,7 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
     loop = ServoLoop(scenario, tracker, config, **(tracker_settings or {}))
     if rrd or spawn:
         from hvs_sim.viz.rerun_log import RerunLogger, recording
+        from hvs_sim.viz.rr_stream import plot_flush_steps
 
         if rrd:
             Path(rrd).parent.mkdir(parents=True, exist_ok=True)
@@ -46,7 +47,8 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
                  "people": scenario.people, "start_offset": list(scenario.start_offset), "loop": asdict(config)}
         logger = RerunLogger(rec, loop.renderer.K, scenario.camera.width, scenario.camera.height,
                              loop.scene.target_corners_world(), config=setup, wall=loop.scene.wall_box(),
-                             arm_meshes=loop.scene.arm_meshes(), background=True)
+                             arm_meshes=loop.scene.arm_meshes(), background=True,
+                             plot_flush_every=plot_flush_steps(live=spawn))
     stats = RunStats(config)
     picks = FramePicks(config.steps) if figures else None
     records: list[StepRecord] = []

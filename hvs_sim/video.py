@@ -198,12 +198,11 @@ class RerunTrackLog:
     def __init__(self, rrd: Path, fps: float):
         import rerun as rr
 
-        from hvs_sim.viz.rr_stream import ScalarColumns, jpeg
+        from hvs_sim.viz.rr_stream import ScalarColumns, jpeg, new_recording, plot_flush_steps
 
         self.rr, self.jpeg, self.fps, self.failed = rr, jpeg, fps, False
-        self.rec = rr.RecordingStream("hvs_sim_track")
-        self.rec.save(str(rrd), default_blueprint=self._blueprint())
-        self.plots = ScalarColumns(self.rec, "frame", "video_time")
+        self.rec = new_recording("hvs_sim_track", rrd=str(rrd), blueprint=self._blueprint())
+        self.plots = ScalarColumns(self.rec, "frame", "video_time", plot_flush_steps(live=False))
         self._guard(self._static)
 
     def _blueprint(self):

@@ -29,7 +29,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from hvs_sim.loop import MODES, StepRecord
-from hvs_sim.viz.rr_stream import ScalarColumns, jpeg
+from hvs_sim.viz.rr_stream import PLOT_FLUSH_STEPS, ScalarColumns, jpeg, new_recording
 
 log = logging.getLogger(__name__)
 RERUN_PIXEL_OFFSET = 0.5  # hvs_sim pixel (OpenCV, centres at integers) → rerun image space (centres at +0.5)
@@ -77,12 +77,8 @@ def blueprint() -> rrb.Blueprint:
 
 
 def recording(application_id: str = "hvs_sim", rrd: str | None = None, spawn: bool = False) -> rr.RecordingStream:
-    rec = rr.RecordingStream(application_id)
-    if spawn:
-        rec.spawn(default_blueprint=blueprint())
-    if rrd:
-        rec.save(rrd, default_blueprint=blueprint())
-    return rec
+    """The loop's recording with its blueprint (rr_stream.new_recording: a file-only one is batched in large chunks)."""
+    return new_recording(application_id, rrd=rrd, spawn=spawn, blueprint=blueprint())
 
 
 class RerunLogger:
@@ -95,8 +91,8 @@ class RerunLogger:
 
     def __init__(self, rec: rr.RecordingStream, K: np.ndarray, width: int, height: int, target_world: np.ndarray | None = None,
                  config: dict | None = None, wall: tuple | None = None, arm_meshes: list | None = None,
-                 background: bool = False):
-        """config: the run's set-up, logged as text at run/config; wall: (centre, R, half sizes) of the board;
+                 background: bool = False, plot_flush_every: int = PLOT_FLUSH_STEPS):
+        """plot_flush_every: steps between sends of the plotted values (rr_stream.plot_flush_steps); config: the run's set-up, logged as text at run/config; wall: (centre, R, half sizes) of the board;
         arm_meshes: (vertices, triangles, RGBA) per arm mesh (Scene.arm_meshes), posed at the steps where they moved."""
         self.rec = rec
         self.failed = False
@@ -105,7 +101,7 @@ class RerunLogger:
         self._writer: threading.Thread | None = None  # started by the first log_step, stopped by drain()
         self.path: list[np.ndarray] = []
         self._last: dict[str, np.ndarray] = {}  # what each still-or-moving entity was last logged with (_moved)
-        self.plots = ScalarColumns(rec, "step", "sim_time")  # plots/*: sent every PLOT_FLUSH_STEPS steps
+        self.plots = ScalarColumns(rec, "step", "sim_time", plot_flush_every)  # plots/*
         self._guard(self._static, K, width, height, target_world)
         if config is not None:
             self._guard(self._text, "run/config", "set-up", config)

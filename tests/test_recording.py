@@ -1,0 +1,59 @@
+"""A recording that goes only to a file is cut into few chunks (rr_stream.new_recording): rerun's file sink keeps
+an index entry per chunk until the file is closed, so chunks per step is what a long run's memory grows with."""
+
+import time
+
+import numpy as np
+import rerun as rr
+from rerun.chunk import RrdReader
+
+from hvs_sim.loop import StepRecord
+from hvs_sim.render.camera import CameraPose
+from hvs_sim.viz.rerun_log import RerunLogger, recording
+from hvs_sim.viz.rr_stream import FILE_PLOT_FLUSH_STEPS, PLOT_FLUSH_STEPS, plot_flush_steps
+
+K = np.array([[80.0, 0, 40], [0, 80, 30], [0, 0, 1]])
+STEPS = 60
+PACE_S = 0.01  # 0.6 s in all: three of rerun's default 0.2 s batcher ticks
+
+
+def record(k: int) -> StepRecord:
+    rng = np.random.default_rng(k)
+    corners = np.array([[20.0, 15], [60, 15], [60, 45], [20, 45]]) + rng.normal(0, 0.5, (4, 2))
+    return StepRecord(step=k, time=k / 30, frame=rng.integers(0, 255, (60, 80, 3), dtype=np.uint8), track=None,
+                      mode="align", features=corners, gt_features=corners, desired=corners, error_px=1.0,
+                      tracker_error_px=0.1, occlusion=0.0, twist=rng.normal(size=6), qdot=rng.normal(size=6),
+                      q=np.zeros(6), camera=CameraPose(R=np.eye(3), t=rng.normal(size=3)), gain=1.0, saturated=False,
+                      limit_blocked=(), fault=None, timings={}, singular_values=np.ones(6))
+
+
+def chunks_per_entity(rrd) -> dict[str, int]:
+    out: dict[str, int] = {}
+    for chunk in RrdReader(str(rrd)).store().stream():
+        if not chunk.is_static:
+            out[chunk.entity_path] = out.get(chunk.entity_path, 0) + 1
+    return out
+
+
+def write(rrd, flush_every: int, rec=None) -> dict[str, int]:
+    rec = recording("hvs_sim_test", rrd=str(rrd)) if rec is None else rec
+    logger = RerunLogger(rec, K, 80, 60, background=True, plot_flush_every=flush_every)
+    for k in range(STEPS):
+        logger.log_step(record(k))
+        time.sleep(PACE_S)
+    logger.close()
+    return chunks_per_entity(rrd)
+
+
+def test_a_file_only_recording_holds_each_entity_in_few_chunks(tmp_path):
+    assert plot_flush_steps(live=False) == FILE_PLOT_FLUSH_STEPS > STEPS
+    assert plot_flush_steps(live=True) == PLOT_FLUSH_STEPS < STEPS
+    file_only = write(tmp_path / "file.rrd", plot_flush_steps(live=False))
+    # every step's frame and pose, batched over 5 s ticks: one chunk (two if a tick fell inside the 0.6 s)
+    assert file_only["/world/camera/image"] <= 2 and file_only["/world/camera"] <= 2
+    assert file_only["/plots/error_px"] == 1 and file_only["/plots/twist/vx"] == 1  # sent once, at close
+    # what the file would hold with rerun's default batcher and the live viewer's plot interval
+    default = rr.RecordingStream("hvs_sim_test")
+    default.save(str(tmp_path / "default.rrd"))
+    live = write(tmp_path / "default.rrd", plot_flush_steps(live=True), default)
+    assert live["/world/camera/image"] >= 3 and live["/plots/error_px"] == STEPS // PLOT_FLUSH_STEPS
