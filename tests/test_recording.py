@@ -35,9 +35,9 @@ def chunks_per_entity(rrd) -> dict[str, int]:
     return out
 
 
-def write(rrd, flush_every: int, rec=None) -> dict[str, int]:
-    rec = recording("hvs_sim_test", rrd=str(rrd)) if rec is None else rec
-    logger = RerunLogger(rec, K, 80, 60, background=True, plot_flush_every=flush_every)
+def write(rrd, flush_every: int) -> dict[str, int]:
+    logger = RerunLogger(recording("hvs_sim_test", rrd=str(rrd)), K, 80, 60, background=True,
+                         plot_flush_every=flush_every)
     for k in range(STEPS):
         logger.log_step(record(k))
         time.sleep(PACE_S)
@@ -45,15 +45,32 @@ def write(rrd, flush_every: int, rec=None) -> dict[str, int]:
     return chunks_per_entity(rrd)
 
 
-def test_a_file_only_recording_holds_each_entity_in_few_chunks(tmp_path):
+def test_a_file_only_recording_holds_each_entity_in_few_chunks(tmp_path, monkeypatch):
     assert plot_flush_steps(live=False) == FILE_PLOT_FLUSH_STEPS > STEPS
     assert plot_flush_steps(live=True) == PLOT_FLUSH_STEPS < STEPS
     file_only = write(tmp_path / "file.rrd", plot_flush_steps(live=False))
     # every step's frame and pose, batched over 5 s ticks: one chunk (two if a tick fell inside the 0.6 s)
     assert file_only["/world/camera/image"] <= 2 and file_only["/world/camera"] <= 2
     assert file_only["/plots/error_px"] == 1 and file_only["/plots/twist/vx"] == 1  # sent once, at close
-    # what the file would hold with rerun's default batcher and the live viewer's plot interval
-    default = rr.RecordingStream("hvs_sim_test")
-    default.save(str(tmp_path / "default.rrd"))
-    live = write(tmp_path / "default.rrd", plot_flush_steps(live=True), default)
+    # a user's own batcher setting wins (here rerun's default 0.2 s tick), and the live viewer's plot interval
+    monkeypatch.setenv("RERUN_FLUSH_TICK_SECS", "0.2")
+    live = write(tmp_path / "default.rrd", plot_flush_steps(live=True))
     assert live["/world/camera/image"] >= 3 and live["/plots/error_px"] == STEPS // PLOT_FLUSH_STEPS
+
+
+def test_a_live_viewer_and_a_file_both_get_the_steps(tmp_path, monkeypatch):
+    """`spawn` and `save` each replace a stream's sinks: with both, the stream tees to the viewer and the file."""
+    spawned = []
+    monkeypatch.setattr(rr.RecordingStream, "spawn", lambda self, **kw: spawned.append(kw))
+    monkeypatch.setattr(rr, "GrpcSink", lambda: rr.FileSink(str(tmp_path / "viewer.rrd")))  # the viewer's sink
+    rec = recording("hvs_sim_test", rrd=str(tmp_path / "run.rrd"), spawn=True)
+    for k in range(5):
+        rec.set_time("step", sequence=k)
+        rec.log("world/camera", rr.Transform3D(translation=[k, 0.0, 0.0]))
+    rec.flush()
+    rec.disconnect()
+    assert spawned == [{"connect": False}]
+    for name in ("viewer.rrd", "run.rrd"):
+        steps = [s for c in RrdReader(str(tmp_path / name)).store().stream() if c.entity_path == "/world/camera"
+                 for s in c.to_record_batch().column("step").to_pylist()]
+        assert sorted(steps) == list(range(5)), name

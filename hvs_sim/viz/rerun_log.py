@@ -7,7 +7,7 @@ Entity paths:
   world/trajectory                  the camera centre's path
   world/target                      target outline in 3-D
   world/occluder                    the people in front of it (boxes around their bodies)
-  world/wall, world/arm/mesh_*      the picture board (box) and the arm's meshes (posed every step)
+  world/wall, world/arm/mesh_*      the picture board (box) and the arm's meshes (posed when they moved)
   run/config, run/summary           the run's set-up and, at the end, its summary (JSON text)
   plots/error_px, plots/tracker_error_px, plots/log10_error_px, plots/occlusion, plots/mode,
   plots/pose_error_mm, plots/pose_error_deg (the camera's pose error, truth), plots/condition_L, plots/rank_L
@@ -92,7 +92,8 @@ class RerunLogger:
     def __init__(self, rec: rr.RecordingStream, K: np.ndarray, width: int, height: int, target_world: np.ndarray | None = None,
                  config: dict | None = None, wall: tuple | None = None, arm_meshes: list | None = None,
                  background: bool = False, plot_flush_every: int = PLOT_FLUSH_STEPS):
-        """plot_flush_every: steps between sends of the plotted values (rr_stream.plot_flush_steps); config: the run's set-up, logged as text at run/config; wall: (centre, R, half sizes) of the board;
+        """plot_flush_every: steps between sends of the plotted values (rr_stream.plot_flush_steps);
+        config: the run's set-up, logged as text at run/config; wall: (centre, R, half sizes) of the board;
         arm_meshes: (vertices, triangles, RGBA) per arm mesh (Scene.arm_meshes), posed at the steps where they moved."""
         self.rec = rec
         self.failed = False

@@ -9,16 +9,20 @@ live viewer's plots trail the images by at most that many steps; a saved .rrd ho
 A recording that goes only to a file (`new_recording(spawn=False)`) is cut into far fewer, larger chunks:
 rerun's file sink (0.28 on) keeps an index entry for every chunk it wrote until the file is closed (the
 .rrd footer), so a long run's memory grows with its number of chunks. Measured here (rerun 0.41, the
-loop's entities logged from synthetic 640×480 steps at 30 Hz, 3 000 steps): rerun's default batcher
+loop's entities logged from synthetic 640×480 steps at 30 Hz, steps 300 to 2 625): rerun's default batcher
 (0.2 s ticks) with plots sent every 15 steps grew 14 MB per 1 000 steps; FILE_FLUSH_TICK_S,
 FILE_FLUSH_BYTES and FILE_PLOT_FLUSH_STEPS below 0.4 MB. The cost: a file being written trails the run
 by up to FILE_FLUSH_TICK_S (plots by FILE_PLOT_FLUSH_STEPS steps) until it is closed, which also
-happens on Ctrl-C. A live viewer keeps rerun's low-latency defaults (and their memory growth).
+happens on Ctrl-C. `save(write_footer=False)` would keep no index at all, but rerun then reads the file
+as a legacy stream (`RrdReader.store()` refuses it, random access is slow). A live viewer keeps rerun's
+low-latency defaults (and their memory growth), and so does a user's own RERUN_FLUSH_* setting.
 
 Light on imports on purpose: no MuJoCo, torch or scene module is loaded here (see video.py).
 """
 
 from __future__ import annotations
+
+import os
 
 import numpy as np
 import rerun as rr
@@ -41,12 +45,15 @@ def jpeg(frame: np.ndarray, quality: int = JPEG_QUALITY) -> rr.EncodedImage:
 def new_recording(application_id: str, rrd: str | None = None, spawn: bool = False,
                   blueprint=None) -> rr.RecordingStream:
     """A RecordingStream to a live viewer (`spawn`) and/or a file; without a viewer, batched in large chunks
-    (module docstring)."""
-    batcher = None if spawn else rr.ChunkBatcherConfig(flush_tick=FILE_FLUSH_TICK_S, flush_num_bytes=FILE_FLUSH_BYTES)
+    (module docstring). With both, one stream feeds both sinks: `spawn` and `save` each replace the sinks."""
+    own = any(k.startswith("RERUN_FLUSH_") for k in os.environ)  # the user's batcher setting wins
+    batcher = None if spawn or own else rr.ChunkBatcherConfig(flush_tick=FILE_FLUSH_TICK_S,
+                                                               flush_num_bytes=FILE_FLUSH_BYTES)
     rec = rr.RecordingStream(application_id, batcher_config=batcher)
     if spawn:
-        rec.spawn(default_blueprint=blueprint)
-    if rrd:
+        rec.spawn(connect=False)  # starts the viewer; the sinks follow
+        rec.set_sinks(rr.GrpcSink(), *([rr.FileSink(rrd)] if rrd else []), default_blueprint=blueprint)
+    elif rrd:
         rec.save(rrd, default_blueprint=blueprint)
     return rec
 
