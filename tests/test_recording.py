@@ -4,13 +4,15 @@ an index entry per chunk until the file is closed, so chunks per step is what a 
 import time
 
 import numpy as np
+import pytest
 import rerun as rr
 from rerun.chunk import RrdReader
 
+from hvs_sim.errors import ConfigError
 from hvs_sim.loop import StepRecord
 from hvs_sim.render.camera import CameraPose
 from hvs_sim.viz.rerun_log import RerunLogger, recording
-from hvs_sim.viz.rr_stream import FILE_PLOT_FLUSH_STEPS, PLOT_FLUSH_STEPS, plot_flush_steps
+from hvs_sim.viz.rr_stream import FILE_PLOT_FLUSH_STEPS, PLOT_FLUSH_STEPS, ScalarColumns, plot_flush_steps
 
 K = np.array([[80.0, 0, 40], [0, 80, 30], [0, 0, 1]])
 STEPS = 60
@@ -74,3 +76,9 @@ def test_a_live_viewer_and_a_file_both_get_the_steps(tmp_path, monkeypatch):
         steps = [s for c in RrdReader(str(tmp_path / name)).store().stream() if c.entity_path == "/world/camera"
                  for s in c.to_record_batch().column("step").to_pylist()]
         assert sorted(steps) == list(range(5)), name
+
+
+@pytest.mark.parametrize("bad", [0, -3, 2.5, True, "15"])
+def test_the_plot_interval_is_checked(bad):
+    with pytest.raises(ConfigError, match="flush_every"):
+        ScalarColumns(rr.RecordingStream("hvs_sim_test"), "step", "sim_time", bad)

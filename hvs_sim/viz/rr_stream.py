@@ -72,8 +72,8 @@ class ScalarColumns:
     """
 
     def __init__(self, rec: rr.RecordingStream, sequence: str, duration: str, flush_every: int = PLOT_FLUSH_STEPS):
-        if flush_every < 1:
-            raise ConfigError(f"flush_every must be ≥ 1, got {flush_every}")
+        if isinstance(flush_every, bool) or not isinstance(flush_every, int) or flush_every < 1:
+            raise ConfigError(f"flush_every must be a whole number of steps ≥ 1, got {flush_every!r}")
         self.rec, self.sequence, self.duration, self.flush_every = rec, sequence, duration, flush_every
         self._now: tuple[int, float] | None = None
         self._steps = 0  # steps buffered since the last flush
