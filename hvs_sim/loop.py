@@ -37,6 +37,7 @@ from hvs_sim.scene.world import Scene
 from hvs_sim.tracking import TRACKER_NAMES, Track, Tracker, make_tracker
 from hvs_sim.tracking.frames import MIN_ROI, inset_roi, roi_corners, roi_from_corners
 from hvs_sim.tracking.warp import perspective_transform
+from hvs_sim.validate import check_number
 
 LOOP_TRACKERS = ("ground_truth",) + TRACKER_NAMES
 MAX_STEPS = 100_000
@@ -84,9 +85,8 @@ class LoopConfig:
             raise choice_error("controller", self.controller, CONTROLLERS)
         if self.template_from is not None and self.template_from not in TEMPLATE_VIEWS:
             raise choice_error("template_from", self.template_from, TEMPLATE_VIEWS)
-        if self.roi_inset_px is not None and (isinstance(self.roi_inset_px, bool) or
-                                              not isinstance(self.roi_inset_px, (int, np.integer)) or self.roi_inset_px < 0):
-            raise ConfigError(f"roi_inset_px must be an int >= 0, got {self.roi_inset_px!r}")
+        if self.roi_inset_px is not None:
+            check_number("roi_inset_px", self.roi_inset_px, 0, integer=True)
         if not (self.converge_mm > 0 and self.converge_deg > 0):
             raise ConfigError(f"converge_mm and converge_deg must be > 0, got {self.converge_mm}, {self.converge_deg}")
         if isinstance(self.steps, bool) or not isinstance(self.steps, (int, np.integer)) or not 1 <= self.steps <= MAX_STEPS:

@@ -28,7 +28,8 @@ import numpy as np
 import rerun as rr
 
 from hvs_sim.camera_model import encode_jpeg
-from hvs_sim.errors import ConfigError, StateError
+from hvs_sim.errors import StateError
+from hvs_sim.validate import check_number
 
 PLOT_FLUSH_STEPS = 15  # plotted values are sent every this many steps (0.5 s at 30 Hz) to a live viewer ...
 FILE_PLOT_FLUSH_STEPS = 300  # ... and every this many (10 s at 30 Hz) to a file only
@@ -72,8 +73,7 @@ class ScalarColumns:
     """
 
     def __init__(self, rec: rr.RecordingStream, sequence: str, duration: str, flush_every: int = PLOT_FLUSH_STEPS):
-        if isinstance(flush_every, bool) or not isinstance(flush_every, int) or flush_every < 1:
-            raise ConfigError(f"flush_every must be a whole number of steps ≥ 1, got {flush_every!r}")
+        check_number("flush_every", flush_every, 1, integer=True)
         self.rec, self.sequence, self.duration, self.flush_every = rec, sequence, duration, flush_every
         self._now: tuple[int, float] | None = None
         self._steps = 0  # steps buffered since the last flush
