@@ -4,7 +4,8 @@
 
 Renders the hand-held sequences as bench_tracking_core.py does (default camera; walk_by, pause and
 partial, seed 100), then runs the hybrid with the similarity warp, the hybrid with the homography
-warp and ECC (make_tracker("ecc")) with torch.set_num_threads(2). The trackers take turns frame by
+warp, both again with the alignment before the leaner LK (`hybrid_full_lk`), and ECC
+(make_tracker("ecc")) with torch.set_num_threads(2). The trackers take turns frame by
 frame (the order rotating), so a change of machine load hits all of them alike; the figure to
 compare across runs is therefore the ratio hybrid / ECC, printed beside the milliseconds. Prints and
 writes median / p95 ms per frame of each, that ratio, the hybrid's median error (a sanity check, not
@@ -33,12 +34,15 @@ from hvs_sim.tracking import make_tracker
 TRACKERS = {  # label → (make_tracker name, settings)
     "hybrid_similarity": ("hybrid", {"warp": "similarity"}),
     "hybrid_homography": ("hybrid", {"warp": "homography"}),
+    # the alignment before the leaner LK (registry: hybrid_full_lk), timed beside it
+    "full_lk_similarity": ("hybrid_full_lk", {"warp": "similarity"}),
+    "full_lk_homography": ("hybrid_full_lk", {"warp": "homography"}),
     "ecc": ("ecc", {}),
 }
 
 
 def run(sequences, labels: list[str]) -> dict:
-    per = {lb: {"ms": [], "err": [], "stages": []} for lb in labels}
+    per = {lb: {"ms": [], "err": [], "stages": [], "aligned": []} for lb in labels}
     for seq in sequences:
         trackers = {}
         for lb in labels:
@@ -53,6 +57,7 @@ def run(sequences, labels: list[str]) -> dict:
                 tk = tr.update(seq.frames[k])
                 per[lb]["ms"].append(tk.ms)
                 per[lb]["err"].append(float(np.linalg.norm(tk.center - gt[k])))
+                per[lb]["aligned"].append(tk.mode == "align")
                 if hasattr(tr, "stage_ms"):
                     per[lb]["stages"].append(dict(tr.stage_ms))
     return per
@@ -63,8 +68,14 @@ def summary(per: dict, ecc_label: str = "ecc") -> dict:
     ecc_median = float(np.median(per[ecc_label]["ms"])) if ecc_label in per else None
     for lb, d in per.items():
         ms = np.array(d["ms"])
+        aligned = np.array(d["aligned"], bool)
         s = {"frames": int(ms.size), "median_ms": float(np.median(ms)), "p95_ms": float(np.percentile(ms, 95)),
-             "mean_ms": float(ms.mean()), "median_px": float(np.median(d["err"]))}
+             "mean_ms": float(ms.mean()), "median_px": float(np.median(d["err"])),
+             # the two paths cost differently (align: VGG + LK; otherwise the motion sources): the
+             # median over all frames depends on how many frames of each the sequences have
+             "aligned_frames": int(aligned.sum()),
+             "median_ms_aligned": float(np.median(ms[aligned])) if aligned.any() else None,
+             "median_ms_not_aligned": float(np.median(ms[~aligned])) if (~aligned).any() else None}
         if ecc_median and lb != ecc_label:
             s["ratio_to_ecc"] = s["median_ms"] / ecc_median
         if d["stages"]:
@@ -98,8 +109,11 @@ def main() -> None:
     for lb, s in res.items():
         ratio = f" = {s['ratio_to_ecc']:.1f}× ECC" if "ratio_to_ecc" in s else ""
         stages = "  ".join(f"{k} {v:.2f}" for k, v in s.get("stage_mean_ms", {}).items())
+        paths = "  ".join(f"{nm} {s[key]:.2f}" for nm, key in (("aligned", "median_ms_aligned"),
+                                                                 ("not aligned", "median_ms_not_aligned")) if s[key])
         print(f"{lb:18s} median {s['median_ms']:6.2f} ms{ratio:12s} p95 {s['p95_ms']:6.2f} ms  median err "
-              f"{s['median_px']:.3f} px" + (f"\n{'':18s} mean ms per stage: {stages}" if stages else ""))
+              f"{s['median_px']:.3f} px" + (f"\n{'':18s} median ms per frame: {paths}" if paths else "")
+              + (f"\n{'':18s} mean ms per stage: {stages}" if stages else ""))
     print(f"load average {load_start[0]:.1f} → {load_end[0]:.1f} (1 min; {os.cpu_count()} CPUs)")
     Path(args.json).parent.mkdir(parents=True, exist_ok=True)
     Path(args.json).write_text(json.dumps(out, indent=2))

@@ -7,7 +7,8 @@
 Runs one episode through hvs_sim.runner.run_episode (JSON + per-step CSV written as it goes; `--rrd` adds a
 recording) and samples the process's resident set size (VmRSS) every `--every` steps. Reports the RSS
 after the first `--every` steps (set-up, GL context, weights, first allocations done) and at the end,
-and their difference: the growth the run's length causes.
+and their difference: the growth the run's length causes. The JSON is rewritten at every sample, so a
+run stopped early keeps what it measured (`finished`: false, `steps_sampled`).
 """
 
 from __future__ import annotations
@@ -50,19 +51,29 @@ def main() -> None:
         add(self, r)
         if self.n % args.every == 0:
             samples.append((self.n, rss_mb(), time.perf_counter() - t0))
+            write(None)  # as it goes: a run stopped early (Ctrl-C, SIGTERM, a time limit) keeps its samples
+
+    def write(summary: dict | None) -> None:
+        first, last = samples[0], samples[-1]
+        finished = summary is not None and not summary.get("interrupted", False)
+        res = {"steps": args.steps, "steps_sampled": last[0], "finished": finished, "tracker": args.tracker,
+               "size": [args.width, args.height], "evaluate": not args.no_eval, "rrd": args.rrd,
+               "rss_mb_after_first": first[1], "rss_mb_at_end": last[1], "growth_mb": last[1] - first[1],
+               "max_rss_mb": max(s[1] for s in samples),
+               "steps_per_second": summary["steps_per_second"] if summary else last[0] / last[2],
+               "samples": [{"step": n, "rss_mb": m, "seconds": s} for n, m, s in samples]}
+        out.write_text(json.dumps(res, indent=2))
 
     RunStats.add = sampled
     scen = make_scenario(args.scenario, mount="arm", seed=0, camera=CameraConfig(width=args.width, height=args.height))
     cfg = LoopConfig(steps=args.steps, evaluate=not args.no_eval, keep_frames=args.rrd)
     summary, _ = run_episode(scen, args.tracker, cfg, progress=True, json_path=str(out.with_name(out.stem + "_run.json")),
                              rrd=str(out.with_suffix(".rrd")) if args.rrd else None)
+    if not samples:
+        raise SystemExit(f"the run ended before step {args.every}: no memory sample taken")
+    write(summary)
     first, last = samples[0], samples[-1]
-    res = {"steps": args.steps, "tracker": args.tracker, "size": [args.width, args.height], "evaluate": not args.no_eval,
-           "rrd": args.rrd, "rss_mb_after_first": first[1], "rss_mb_at_end": last[1], "growth_mb": last[1] - first[1],
-           "max_rss_mb": max(s[1] for s in samples), "steps_per_second": summary["steps_per_second"],
-           "samples": [{"step": n, "rss_mb": m, "seconds": s} for n, m, s in samples]}
-    out.write_text(json.dumps(res, indent=2))
-    print(f"{args.steps} steps: RSS {first[1]:.1f} MB after {first[0]} steps, {last[1]:.1f} MB at the end "
+    print(f"{last[0]} steps: RSS {first[1]:.1f} MB after {first[0]} steps, {last[1]:.1f} MB at the end "
           f"(growth {last[1] - first[1]:+.1f} MB); written {out}")
 
 

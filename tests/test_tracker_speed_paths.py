@@ -15,19 +15,27 @@ import torch
 
 from hvs_sim.errors import ConfigError
 from hvs_sim.tracking import make_tracker
-from hvs_sim.tracking.aligner import Aligner, DeepLKConfig
+from hvs_sim.tracking.aligner import AS_TAKEN_SKIP_OCCLUSION, Aligner, DeepLKConfig
 from hvs_sim.tracking.feature_lk import (
     HUBER_K,
     MAD_TO_SIGMA,
     LKConfig,
     bilinear_rows,
+    gradient_basis,
     sample_points,
     update_matrix,
 )
 from hvs_sim.tracking.global_match import GlobalMatcher
 from hvs_sim.tracking.nets.vgg import vgg16_pool2
-from hvs_sim.tracking.occlusion import GAIN_BIN, GAIN_MIN_LEVEL, GAIN_RANGE, _log_ratio_counts, exposure_gain
-from hvs_sim.tracking.warp import apply, pose_to_matrix
+from hvs_sim.tracking.occlusion import (
+    GAIN_BIN,
+    GAIN_MIN_LEVEL,
+    GAIN_RANGE,
+    _log_ratio_counts,
+    aligned_patch,
+    exposure_gain,
+)
+from hvs_sim.tracking.warp import apply, pose_to_matrix, warp_image
 
 ROI = (120, 90, 96, 64)
 
@@ -221,3 +229,114 @@ def test_hybrid_is_deterministic_and_reports_its_stages(warp):
     assert np.array_equal(runs[0], runs[1])
     truth = apply(pose_to_matrix((0.7 * 7, -0.4 * 7, 0.028, 1.014), c), c[None])[0]
     assert np.linalg.norm(tracks[-1].center - truth) < 0.3
+
+
+def test_gradient_basis_is_orthonormal_and_keeps_most_of_the_gradient_energy():
+    al = Aligner(DeepLKConfig())
+    al.set_template(texture(8), ROI)
+    level = al.lk_engine.level("conv1_2")  # full channels: the basis is computed from these copies
+    gx, gy = level.gx, level.gy
+    assert gradient_basis(gx, gy, gx.shape[1]) is None  # no reduction asked: no projection
+    B = gradient_basis(gx, gy, 8)
+    assert B.shape == (gx.shape[1], 8) and B.dtype == np.float32
+    assert np.allclose(B.T @ B, np.eye(8), atol=1e-5)
+    energy = lambda P: float(np.sum((gx @ P) ** 2) + np.sum((gy @ P) ** 2))
+    total = energy(np.eye(gx.shape[1], dtype=np.float32))
+    rng = np.random.default_rng(0)
+    random_basis = np.linalg.qr(rng.standard_normal((gx.shape[1], 8)))[0].astype(np.float32)
+    assert energy(B) > 0.8 * total and energy(B) > 2 * energy(random_basis)
+
+
+@pytest.mark.parametrize("warp", ["similarity", "homography"])
+def test_lk_in_the_gradient_subspace_lands_where_the_full_lk_does(warp):
+    img = texture(9)
+    answers = {}
+    for channels in (None, 8):
+        lk = LKConfig(levels=("pool1", "conv1_2"), iterations=(15, 8), channels=channels)
+        al = Aligner(DeepLKConfig(warp=warp, lk=lk, margin=5))
+        al.set_template(img, ROI)
+        assert all((lv.basis is None) == (channels is None) for lv in al.lk_engine.levels)
+        for pose in ((0.9, -0.6, 0.02, 1.01), (-1.4, 1.1, -0.03, 0.98)):
+            frame = al.work_image(moved(img, pose, al.center0))
+            A = al.to_full(al.align(frame, np.eye(3)).A_work)
+            truth = pose_to_matrix(pose, al.center0)
+            corners = np.array([[ROI[0], ROI[1]], [ROI[0] + ROI[2], ROI[1] + ROI[3]]], float)
+            err = np.abs(apply(A, corners) - apply(truth, corners)).max()
+            assert err < 0.1, (channels, pose, err)  # full-resolution px
+            answers.setdefault(pose, []).append(apply(A, corners))
+    for a, b in answers.values():
+        assert np.abs(a - b).max() < 0.05
+
+
+def test_lk_channels_must_be_a_positive_int_or_none():
+    for bad in (0, -3, 2.5, True, "8"):
+        with pytest.raises(ConfigError, match="channels"):
+            LKConfig(channels=bad)
+
+
+def test_aligned_patch_skips_the_mask_warp_only_where_every_pixel_is_inside():
+    rng = np.random.default_rng(1)
+    grey = rng.integers(0, 256, (120, 160), np.uint8)
+    for i in range(400):
+        A = np.eye(3)
+        A[:2, :2] += rng.normal(0, 0.2, (2, 2))
+        A[:2, 2] = rng.uniform(-40, 150, 2)
+        if i % 2:
+            A[2, :2] = rng.normal(0, 2e-3, 2)  # perspective
+        origin, shape = rng.uniform(0, 100, 2), (int(rng.integers(4, 40)), int(rng.integers(4, 40)))
+        _, inside = aligned_patch(grey, A, origin, shape)
+        M = A @ np.array([[1, 0, origin[0]], [0, 1, origin[1]], [0, 0, 1.0]])
+        ref = warp_image(np.full(grey.shape, 255, np.uint8), M, shape[::-1],
+                         flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT) > 0
+        assert np.array_equal(inside, ref), i
+
+
+def test_the_search_with_the_template_as_taken_runs_only_when_the_rectified_one_does_not_confirm():
+    img = texture(10)
+    c = np.array([ROI[0] + (ROI[2] - 1) / 2, ROI[1] + (ROI[3] - 1) / 2])
+    pose = (1.0, -0.5, 0.05, 1.04)  # turned and scaled: the search template is rectified
+    cases = [  # (always_search_as_taken, what is wrong, searches expected)
+        (False, None, 1), (True, None, 2),
+        (False, "estimate", 2),  # 12 px from the target: the rectified search does not confirm it
+        (False, "hidden", 2),  # a quarter of the target covered: OP_t over AS_TAKEN_SKIP_OCCLUSION
+    ]
+    for always, wrong, searches in cases:
+        al = Aligner(DeepLKConfig(always_search_as_taken=always))
+        al.set_template(img, ROI)
+        A = pose_to_matrix(pose, c)
+        if wrong == "estimate":
+            A = pose_to_matrix((pose[0] + 12.0, pose[1], pose[2], pose[3]), c)
+        frame = moved(img, pose, c)
+        if wrong == "hidden":
+            frame[ROI[1]:ROI[1] + ROI[3], ROI[0]:ROI[0] + ROI[2] // 4] = 0
+        calls = []
+
+        def counted(*a, _match=al.matcher.match, _calls=calls):
+            _calls.append(1)
+            return _match(*a)
+
+        al.matcher.match = counted
+        m, seed, op, _ = al.coarse(al.work_image(frame), A)
+        assert len(calls) == searches, (always, wrong)
+        assert (op > AS_TAKEN_SKIP_OCCLUSION) == (wrong == "hidden")
+        if wrong == "hidden":
+            continue
+        assert m.score > 0.8
+        assert np.linalg.norm(al.to_full(seed)[:2, 2] - pose_to_matrix(pose, c)[:2, 2]) < 2.0
+
+
+def test_the_hybrid_runs_the_fast_lk_and_its_variants_keep_what_they_need():
+    from hvs_sim.tracking.hybrid import HYBRID_LK, HYBRID_MARGIN
+
+    fast = make_tracker("hybrid")
+    assert fast.config.lk == HYBRID_LK and fast.config.margin == HYBRID_MARGIN
+    assert "pool2" not in HYBRID_LK.levels and HYBRID_LK.channels == 8
+    full = make_tracker("hybrid_full_lk")
+    assert full.config.lk.levels == ("pool2", "pool1", "conv1_2") and full.config.lk.channels is None
+    assert full.config.margin == 8 and full.config.always_search_as_taken
+    # the residual regressor reads pool2: its variants keep deep_lk's LK
+    assert "pool2" in make_tracker("hybrid_residual").config.lk.levels
+    assert make_tracker("deep_lk").config.lk == LKConfig()
+    assert make_tracker("hybrid", lk={"channels": 16}).config.lk.channels == 16  # a dict is read as LKConfig
+    with pytest.raises(ConfigError, match="lk"):
+        make_tracker("hybrid", lk={"chanels": 16})

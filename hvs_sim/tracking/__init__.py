@@ -32,6 +32,10 @@ def _builder(name: str, config: dict):
     if spec is None:
         raise choice_error("tracker", name, TRACKER_NAMES)
     config = {**spec.config, **config}
+    if isinstance(config.get("lk"), dict):  # the feature LK's settings as a dict (registry variants)
+        from hvs_sim.tracking.feature_lk import LKConfig
+
+        config["lk"] = LKConfig(**_settings(f"{name} lk", LKConfig, config["lk"]))
     if spec.base == "deep_lk":
         from hvs_sim.tracking.deep_lk import DeepLKConfig, DeepLKTracker
 
@@ -39,14 +43,14 @@ def _builder(name: str, config: dict):
         return lambda: DeepLKTracker(cfg)
     if spec.base == "hybrid":
         from hvs_sim.tracking.aligner import DeepLKConfig
-        from hvs_sim.tracking.hybrid import HybridConfig, HybridTracker
+        from hvs_sim.tracking.hybrid import HybridConfig, HybridTracker, hybrid_deep_config
 
         hybrid_keys = {f.name for f in fields(HybridConfig)} - {"deep"}
         deep_keys = {f.name for f in fields(DeepLKConfig)}
         unknown = set(config) - hybrid_keys - deep_keys
         if unknown:
             raise _unknown_settings(name, unknown, hybrid_keys | deep_keys)
-        base_deep = HybridConfig.__dataclass_fields__["deep"].default_factory()
+        base_deep = hybrid_deep_config(residual=bool(config.get("residual", False)))
         deep = DeepLKConfig(**{**{f.name: getattr(base_deep, f.name) for f in fields(DeepLKConfig)},
                                **{k: v for k, v in config.items() if k in deep_keys}})
         cfg = HybridConfig(deep=deep, **{k: v for k, v in config.items() if k in hybrid_keys})

@@ -18,6 +18,10 @@ two-thread parallel regions cost more than the arithmetic (and far more when ano
 a core). The right-hand side b = Σ w SDᵀ e is taken as Jxᵀ(w·⟨ρ∇xF, e⟩) + Jyᵀ(w·⟨ρ∇yF, e⟩): two
 dot products per point instead of a (N·C × P) product, the same sum regrouped. The levels before
 the last stop at a looser threshold (LKConfig.coarse_eps): only the last level's optimum is the answer.
+With `LKConfig.channels` = k the loop runs on the features projected on the k directions that carry
+most of the template's feature-gradient energy (`gradient_basis`): the gather, the residuals and the
+products shrink by k/C, and the directions dropped are those along which a misalignment barely
+changes the features (the hybrid: 8 of 64; README, tracker speed).
 """
 
 from __future__ import annotations
@@ -77,6 +81,10 @@ class LKConfig:
     # also stop a level when the updates shrink geometrically (ratio q ≤ PREDICT_MAX_RATIO) and the
     # movement still to come, d·q / (1 − q) for an update d, is below the level's threshold
     predict_stop: bool = False
+    # project each level's features on this many directions before the Gauss–Newton loop (None: all
+    # channels). The directions are the template's principal feature-gradient directions
+    # (`gradient_basis`), so the projection keeps what moves the alignment and drops what does not
+    channels: int | None = None
 
     def __post_init__(self):
         bad = [lv for lv in self.levels if lv not in STRIDES]
@@ -86,6 +94,9 @@ class LKConfig:
             raise ConfigError("LK iterations must give one positive count per level")
         if not self.eps > 0 or (self.coarse_eps is not None and not self.coarse_eps > 0):
             raise ConfigError(f"LK eps and coarse_eps must be > 0, got {self.eps}, {self.coarse_eps}")
+        if self.channels is not None and (isinstance(self.channels, bool) or not isinstance(self.channels, int)
+                                          or self.channels < 1):
+            raise ConfigError(f"LK channels must be None (all) or an int >= 1, got {self.channels!r}")
 
     def threshold(self, level: int, stride: int) -> float:
         """Work px below which an update ends level number `level` (of stride `stride`)."""
@@ -110,6 +121,19 @@ def bilinear_rows(fmap: np.ndarray, ux: np.ndarray, uy: np.ndarray) -> np.ndarra
     gx, gy = 1.0 - fx, 1.0 - fy
     weights = np.stack([gx * gy, fx * gy, gx * fy, fx * fy])
     return np.einsum("kn,knc->nc", weights, corners)
+
+
+def gradient_basis(gx: np.ndarray, gy: np.ndarray, k: int) -> np.ndarray | None:
+    """(C, k) orthonormal float32 directions of feature space that carry most of the template's
+    feature-gradient energy (the top right singular vectors of [∇xF; ∇yF]), or None when k does not
+    reduce C. Projecting template and image features on them keeps the Gauss–Newton Hessian's
+    largest part: an LK in a k-channel subspace that costs k/C of the full one per iteration."""
+    C = gx.shape[1]
+    if k >= C:
+        return None
+    G = np.concatenate([gx, gy]).astype(np.float64)
+    _, _, vt = np.linalg.svd(G, full_matrices=False)
+    return np.ascontiguousarray(vt[:k].T, dtype=np.float32)
 
 
 def _median(r: np.ndarray) -> float:
@@ -167,6 +191,7 @@ class _Level:
     jx: np.ndarray = None
     jy: np.ndarray = None
     hess_t: np.ndarray = None
+    basis: np.ndarray | None = None  # (C, k) projection of the numpy loop's features (LKConfig.channels)
 
 
 @dataclass
@@ -214,9 +239,16 @@ class FeatureICLK:
             P = self.n_params
             hess = torch.einsum("nci,ncj->nij", sd, sd).double().numpy().reshape(-1, P * P)
             pts_h = np.ascontiguousarray(np.c_[pts, np.ones(len(pts))].T)
+            f_np, gx_np, gy_np, hess_np = f.numpy(), gx_r.numpy(), gy_r.numpy(), hess
+            basis = None if self.config.channels is None else gradient_basis(gx_np, gy_np, self.config.channels)
+            if basis is not None:  # the loop's copies in the subspace, and their Hessians
+                f_np, gx_np, gy_np = f_np @ basis, gx_np @ basis, gy_np @ basis
+                sd_k = gx_np[:, :, None] * jx_np[:, None, :] + gy_np[:, :, None] * jy_np[:, None, :]
+                hess_np = np.einsum("nci,ncj->nij", sd_k, sd_k).reshape(-1, P * P).astype(np.float64)
             self.levels.append(_Level(name, s, pts, f, sd.reshape(-1, P).contiguous(), hess, grid,
-                                      f.numpy(), gx_r.numpy(), gy_r.numpy(), pts_h, np.ascontiguousarray(jx_np.T),
-                                      np.ascontiguousarray(jy_np.T), np.ascontiguousarray(hess.T)))
+                                      np.ascontiguousarray(f_np), np.ascontiguousarray(gx_np),
+                                      np.ascontiguousarray(gy_np), pts_h, np.ascontiguousarray(jx_np.T),
+                                      np.ascontiguousarray(jy_np.T), np.ascontiguousarray(hess_np.T), basis))
 
     def level(self, name: str) -> _Level:
         return next(lv for lv in self.levels if lv.name == name)
@@ -267,6 +299,10 @@ class FeatureICLK:
             stop = self.config.threshold(li, level.stride)
             last_size = None
             fmap = channels_last(feats[level.name])
+            if level.basis is not None:
+                # torch, not numpy: numpy's matmul would wake BLAS's own thread pool beside torch's
+                flat = torch.from_numpy(fmap.reshape(-1, fmap.shape[2])) @ torch.from_numpy(level.basis)
+                fmap = flat.numpy().reshape(*fmap.shape[:2], -1)  # (H, W, k)
             # work px → this level's feature grid: u = (x − shift) / σ; the crop's usable box in u
             shift = np.asarray(origin, float) + (level.stride - 1) / 2.0
             (ux_lo, uy_lo), (ux_hi, uy_hi) = (lo - shift) / level.stride, (hi - shift) / level.stride

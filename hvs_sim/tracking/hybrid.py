@@ -44,6 +44,7 @@ from hvs_sim.errors import ConfigError
 from hvs_sim.tracking.aligner import Aligner, DeepLKConfig
 from hvs_sim.tracking.background import BackgroundConfig
 from hvs_sim.tracking.base import Estimate, Mode, Tracker
+from hvs_sim.tracking.feature_lk import LKConfig
 from hvs_sim.tracking.occlusion import aligned_patch, occlusion_fraction
 from hvs_sim.tracking.predictors import PREDICTORS, make_predictor
 from hvs_sim.tracking.sources import (
@@ -57,6 +58,21 @@ from hvs_sim.tracking.sources import (
 from hvs_sim.tracking.trackability import check_trackable
 from hvs_sim.tracking.warp import matrix_to_pose
 
+# The hybrid's feature LK (README, tracker speed). The global match seeds it within about a work pixel on
+# every frame it aligns, so it starts at pool1 (stride 2) without pool2's wider basin, which cost the
+# conv2 layers and a third of the LK; and it runs in the 8-channel subspace of the template's principal
+# feature gradients (LKConfig.channels). A 5 px margin (8 for deep_lk) still leaves 2 px beyond the
+# LK's border for the alignment to move. The residual variants keep pool2, which the regressor reads.
+HYBRID_LK = LKConfig(levels=("pool1", "conv1_2"), iterations=(15, 8), channels=8)
+HYBRID_MARGIN = 5
+
+
+def hybrid_deep_config(residual: bool = False) -> DeepLKConfig:
+    """The hybrid's default alignment settings: the fast LK above, or, with the residual regressor,
+    deep_lk's (pool2 → pool1 → conv1_2 on all channels)."""
+    return DeepLKConfig() if residual else DeepLKConfig(lk=HYBRID_LK, margin=HYBRID_MARGIN)
+
+
 CONFIDENCE_HALF_LIFE = 30  # frames (1 s at 30 Hz) since the last alignment over which an unaligned pose's confidence halves
 PREDICTED_CONFIDENCE = 0.5  # a predictor's guess, relative to a measurement of the scene's motion
 
@@ -64,7 +80,7 @@ PREDICTED_CONFIDENCE = 0.5  # a predictor's guess, relative to a measurement of 
 @dataclass(frozen=True)
 class HybridConfig:
     # the residual regressor is off: on held-out data it did not earn its place (README, learned modules)
-    deep: DeepLKConfig = field(default_factory=DeepLKConfig)
+    deep: DeepLKConfig = field(default_factory=hybrid_deep_config)
     occlusion_gate: float = 0.4
     predictor: str = "gru"
     history: int = 10

@@ -52,9 +52,24 @@ def aligned_patch(grey: np.ndarray, A: np.ndarray, origin: np.ndarray, shape: tu
     M = A @ T
     h, w = shape
     patch = warp_image(grey, M, (w, h), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT)
+    if _all_inside(M, (h, w), grey.shape[:2]):  # the common case, without warping a frame-sized mask
+        return patch, np.ones((h, w), bool)
     inside = warp_image(np.full(grey.shape[:2], 255, np.uint8), M, (w, h),
                         flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_CONSTANT) > 0
     return patch, inside
+
+
+def _all_inside(M: np.ndarray, shape: tuple[int, int], frame_shape: tuple[int, int]) -> bool:
+    """Whether every pixel centre of a (h, w) patch lands inside the frame under M: its four corner
+    centres do (the patch is convex, and so is its image under an affine map or a homography that
+    keeps all four in front)."""
+    h, w = shape
+    corners = np.array([[0.0, 0.0, 1.0], [w - 1.0, 0.0, 1.0], [w - 1.0, h - 1.0, 1.0], [0.0, h - 1.0, 1.0]]) @ M.T
+    if np.any(corners[:, 2] <= 0):
+        return False
+    x, y = corners[:, 0] / corners[:, 2], corners[:, 1] / corners[:, 2]
+    H, W = frame_shape
+    return bool(x.min() >= 0 and y.min() >= 0 and x.max() <= W - 1 and y.max() <= H - 1)
 
 
 def exposure_gain(patch: np.ndarray, template: np.ndarray, inside: np.ndarray | None = None) -> float:
