@@ -62,7 +62,9 @@ def main() -> None:
                "max_rss_mb": max(s[1] for s in samples),
                "steps_per_second": summary["steps_per_second"] if summary else last[0] / last[2],
                "samples": [{"step": n, "rss_mb": m, "seconds": s} for n, m, s in samples]}
-        out.write_text(json.dumps(res, indent=2))
+        tmp = out.with_name(out.name + ".tmp")  # written whole, then renamed: a kill mid-write leaves the last one
+        tmp.write_text(json.dumps(res, indent=2))
+        tmp.replace(out)
 
     RunStats.add = sampled
     scen = make_scenario(args.scenario, mount="arm", seed=0, camera=CameraConfig(width=args.width, height=args.height))

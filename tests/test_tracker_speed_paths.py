@@ -8,6 +8,8 @@ whole stays deterministic. Images are synthetic (smoothed noise), so nothing dep
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import cv2
 import numpy as np
 import pytest
@@ -299,6 +301,9 @@ def test_the_search_with_the_template_as_taken_runs_only_when_the_rectified_one_
         (False, None, 1), (True, None, 2),
         (False, "estimate", 2),  # 12 px from the target: the rectified search does not confirm it
         (False, "hidden", 2),  # a quarter of the target covered: OP_t over AS_TAKEN_SKIP_OCCLUSION
+        (False, "op_over", 2),  # confirmed, but OP_t at the estimate just over the bound
+        (False, "op_under", 1),  # confirmed, OP_t just under it
+        (False, "keep_current", 2),  # deep_lk's search: global-match seeds only, both searches always
     ]
     for always, wrong, searches in cases:
         al = Aligner(DeepLKConfig(always_search_as_taken=always))
@@ -309,6 +314,12 @@ def test_the_search_with_the_template_as_taken_runs_only_when_the_rectified_one_
         frame = moved(img, pose, c)
         if wrong == "hidden":
             frame[ROI[1]:ROI[1] + ROI[3], ROI[0]:ROI[0] + ROI[2] // 4] = 0
+        if wrong in ("op_over", "op_under"):  # the OP_t rule alone decides: the rectified search confirms
+            op_value = AS_TAKEN_SKIP_OCCLUSION + (0.01 if wrong == "op_over" else -0.01)
+            al.occlusion = lambda work, cand, _v=op_value: _v
+            first = al.matcher.match(al.matcher.prepare(al.work_image(frame)), al.rectified_template(A))
+            assert first.score >= al.config.match_threshold
+            assert np.linalg.norm(first.center - apply(al.to_work(A), al.c_work[None])[0]) <= al.config.reinit_px
         calls = []
 
         def counted(*a, _match=al.matcher.match, _calls=calls):
@@ -316,8 +327,10 @@ def test_the_search_with_the_template_as_taken_runs_only_when_the_rectified_one_
             return _match(*a)
 
         al.matcher.match = counted
-        m, seed, op, _ = al.coarse(al.work_image(frame), A)
+        m, seed, op, _ = al.coarse(al.work_image(frame), A, keep_current=wrong != "keep_current")
         assert len(calls) == searches, (always, wrong)
+        if wrong in ("op_over", "op_under"):
+            continue
         assert (op > AS_TAKEN_SKIP_OCCLUSION) == (wrong == "hidden")
         if wrong == "hidden":
             continue
@@ -337,6 +350,16 @@ def test_the_hybrid_runs_the_fast_lk_and_its_variants_keep_what_they_need():
     # the residual regressor reads pool2: its variants keep deep_lk's LK
     assert "pool2" in make_tracker("hybrid_residual").config.lk.levels
     assert make_tracker("deep_lk").config.lk == LKConfig()
-    assert make_tracker("hybrid", lk={"channels": 16}).config.lk.channels == 16  # a dict is read as LKConfig
+    assert not fast.config.always_search_as_taken
+    assert make_tracker("hybrid_residual").config.always_search_as_taken  # deep_lk's alignment, as before
+    assert make_tracker("deep_lk").config.always_search_as_taken
+    # an lk dict changes the tracker's own LK only in what it names
+    assert make_tracker("hybrid", lk={"channels": 16}).config.lk == replace(HYBRID_LK, channels=16)
+    assert make_tracker("hybrid_full_lk", lk={"channels": 16}).config.lk == replace(full.config.lk, channels=16)
+    assert make_tracker("deep_lk", lk={"channels": np.int64(4)}).config.lk.channels == 4
+    with pytest.raises(ConfigError, match="lk must be an LKConfig"):
+        make_tracker("hybrid", lk="fast")
+    with pytest.raises(ConfigError, match="always_search_as_taken"):
+        make_tracker("hybrid", always_search_as_taken="no")
     with pytest.raises(ConfigError, match="lk"):
         make_tracker("hybrid", lk={"chanels": 16})

@@ -25,21 +25,32 @@ def _settings(name: str, cls, config: dict) -> dict:
     return config
 
 
+def _lk_from_dict(name: str, config: dict, base) -> dict:
+    """`config` with an `lk` given as a dict of LKConfig settings turned into the LKConfig `base` with them
+    changed (the tracker's own LK, so {"channels": 16} changes only that)."""
+    if not isinstance(config.get("lk"), dict):
+        return config
+    from dataclasses import replace
+
+    from hvs_sim.tracking.feature_lk import LKConfig
+
+    return {**config, "lk": replace(base, **_settings(f"{name} lk", LKConfig, config["lk"]))}
+
+
 def _builder(name: str, config: dict):
     """The checked configuration of tracker `name` with `config` overriding its settings, as a function
     that builds the tracker (the checks are cheap; building loads weights)."""
     spec: TrackerSpec | None = TRACKERS.get(name)
     if spec is None:
         raise choice_error("tracker", name, TRACKER_NAMES)
+    lk_dicts = [c["lk"] for c in (spec.config, config) if isinstance(c.get("lk"), dict)]
     config = {**spec.config, **config}
-    if isinstance(config.get("lk"), dict):  # the feature LK's settings as a dict (registry variants)
-        from hvs_sim.tracking.feature_lk import LKConfig
-
-        config["lk"] = LKConfig(**_settings(f"{name} lk", LKConfig, config["lk"]))
+    if lk_dicts and isinstance(config["lk"], dict):  # LK settings as dicts (variant, then caller), read below
+        config["lk"] = {k: v for d in lk_dicts for k, v in d.items()}
     if spec.base == "deep_lk":
         from hvs_sim.tracking.deep_lk import DeepLKConfig, DeepLKTracker
 
-        cfg = DeepLKConfig(**_settings(name, DeepLKConfig, config))
+        cfg = DeepLKConfig(**_settings(name, DeepLKConfig, _lk_from_dict(name, config, DeepLKConfig().lk)))
         return lambda: DeepLKTracker(cfg)
     if spec.base == "hybrid":
         from hvs_sim.tracking.aligner import DeepLKConfig
@@ -51,6 +62,7 @@ def _builder(name: str, config: dict):
         if unknown:
             raise _unknown_settings(name, unknown, hybrid_keys | deep_keys)
         base_deep = hybrid_deep_config(residual=bool(config.get("residual", False)))
+        config = _lk_from_dict(name, config, base_deep.lk)
         deep = DeepLKConfig(**{**{f.name: getattr(base_deep, f.name) for f in fields(DeepLKConfig)},
                                **{k: v for k, v in config.items() if k in deep_keys}})
         cfg = HybridConfig(deep=deep, **{k: v for k, v in config.items() if k in hybrid_keys})

@@ -99,11 +99,19 @@ class DeepLKConfig:
     # homography only: refine LK's answer by ECC on the grey template (refine_intensity)
     refine_intensity: bool = True
     # search with the template as taken on every frame, beside the template rectified by the current θ, s
-    # (False: only when the rectified search does not confirm an unhidden estimate; see Aligner.coarse)
-    always_search_as_taken: bool = False
+    # (False, the hybrid's default: only when the rectified search does not confirm an unhidden estimate;
+    # see Aligner.coarse)
+    always_search_as_taken: bool = True
 
     def __post_init__(self):
         check_warp(self.warp)
+        if not isinstance(self.lk, LKConfig):
+            raise ConfigError(f"lk must be an LKConfig (or, through make_tracker, a dict of its settings), got "
+                              f"{type(self.lk).__name__}")
+        for flag in ("residual", "verify_residual", "allow_untrackable", "normalise_exposure", "refine_intensity",
+                     "always_search_as_taken"):
+            if not isinstance(getattr(self, flag), (bool, np.bool_)):
+                raise ConfigError(f"{flag} must be True or False, got {getattr(self, flag)!r}")
         if self.residual and self.warp != "similarity":
             raise ConfigError("the residual regressor predicts a similarity correction; it cannot refine a "
                               f"{self.warp} warp: use residual=False with warp={self.warp!r}")
@@ -263,7 +271,8 @@ class Aligner:
         centre. OP_t is measured on the patch each of them aligns, and the one showing the target
         best (lowest OP_t) wins: under partial occlusion the NCC peak can jump to another place
         while the current estimate still sits on the visible part of the target.
-        The search uses the template rectified by the current θ, s and the template as taken; a
+        The search uses the template rectified by the current θ, s and, unless that search confirms an
+        unhidden estimate (`always_search_as_taken`, AS_TAKEN_SKIP_OCCLUSION), the template as taken; a
         match of the latter seeds θ = 0, s = 1. With keep_current=False (the paper's Deep LK
         baseline) only global-match seeds are considered.
         Returns (match, seed warp, OP_t at the seed, whether the seed is the current estimate).

@@ -42,6 +42,7 @@ from hvs_sim.tracking.warp import (
     is_affine,
     params_to_matrix,
 )
+from hvs_sim.validate import check_number
 
 HUBER_K = 1.345  # Huber threshold in robust standard deviations (95 % efficiency on Gaussian residuals)
 MAD_TO_SIGMA = 1.4826  # median absolute deviation → standard deviation
@@ -94,9 +95,8 @@ class LKConfig:
             raise ConfigError("LK iterations must give one positive count per level")
         if not self.eps > 0 or (self.coarse_eps is not None and not self.coarse_eps > 0):
             raise ConfigError(f"LK eps and coarse_eps must be > 0, got {self.eps}, {self.coarse_eps}")
-        if self.channels is not None and (isinstance(self.channels, bool) or not isinstance(self.channels, int)
-                                          or self.channels < 1):
-            raise ConfigError(f"LK channels must be None (all) or an int >= 1, got {self.channels!r}")
+        if self.channels is not None:
+            check_number("LK channels (None: all)", self.channels, 1, integer=True)
 
     def threshold(self, level: int, stride: int) -> float:
         """Work px below which an update ends level number `level` (of stride `stride`)."""
@@ -199,7 +199,7 @@ class AlignResult:
     M: np.ndarray  # final warp in normalised coordinates
     iterations: int
     valid: float  # share of template points that landed inside the image crop (last level)
-    residual: float  # RMS feature residual of the valid points (last level)
+    residual: float  # RMS feature residual of the valid points (last level; in its k-channel subspace with LKConfig.channels)
     per_level: list = field(default_factory=list)
 
 

@@ -62,7 +62,8 @@ from hvs_sim.tracking.warp import matrix_to_pose
 # every frame it aligns, so it starts at pool1 (stride 2) without pool2's wider basin, which cost the
 # conv2 layers and a third of the LK; and it runs in the 8-channel subspace of the template's principal
 # feature gradients (LKConfig.channels). A 5 px margin (8 for deep_lk) still leaves 2 px beyond the
-# LK's border for the alignment to move. The residual variants keep pool2, which the regressor reads.
+# LK's border for the alignment to move; the second NCC search runs only when needed (Aligner.coarse). The
+# residual variants keep deep_lk's alignment: the regressor reads pool2.
 HYBRID_LK = LKConfig(levels=("pool1", "conv1_2"), iterations=(15, 8), channels=8)
 HYBRID_MARGIN = 5
 
@@ -70,7 +71,9 @@ HYBRID_MARGIN = 5
 def hybrid_deep_config(residual: bool = False) -> DeepLKConfig:
     """The hybrid's default alignment settings: the fast LK above, or, with the residual regressor,
     deep_lk's (pool2 → pool1 → conv1_2 on all channels)."""
-    return DeepLKConfig() if residual else DeepLKConfig(lk=HYBRID_LK, margin=HYBRID_MARGIN)
+    if residual:
+        return DeepLKConfig()
+    return DeepLKConfig(lk=HYBRID_LK, margin=HYBRID_MARGIN, always_search_as_taken=False)
 
 
 CONFIDENCE_HALF_LIFE = 30  # frames (1 s at 30 Hz) since the last alignment over which an unaligned pose's confidence halves

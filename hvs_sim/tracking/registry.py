@@ -48,7 +48,8 @@ TRACKERS: dict[str, TrackerSpec] = {
                                               "#c5b0d5"),
     "hybrid_raw_op": TrackerSpec("hybrid", {"normalise_exposure": False},
                                  "OP_t on raw intensities (the paper's), not exposure-normalised", "#c49c94"),
-    "hybrid_full_lk": TrackerSpec("hybrid", {"lk": {"levels": ("pool2", "pool1", "conv1_2"), "iterations": (15, 10, 8)},
+    "hybrid_full_lk": TrackerSpec("hybrid", {"lk": {"levels": ("pool2", "pool1", "conv1_2"), "iterations": (15, 10, 8),
+                                                    "channels": None},
                                              "margin": 8, "always_search_as_taken": True},
                                   "the hybrid's alignment before the speed work: feature LK from pool2, all 64 "
                                   "channels, 8 px margin, both global searches every frame", "#9edae5"),
