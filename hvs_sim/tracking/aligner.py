@@ -283,20 +283,15 @@ class Aligner:
         matches = [(self.matcher.match(search, rectified), A_prev)]
         c_prev = apply(A_prev, self.c_work[None])[0]
         first = matches[0][0]
-        ops: dict[int, float] = {}  # OP_t per candidate warp, each measured once
-
-        def occlusion_of(cand: np.ndarray) -> float:
-            if id(cand) not in ops:
-                ops[id(cand)] = self.occlusion(work, cand)
-            return ops[id(cand)]
-
+        # OP_t at the current estimate: a candidate whenever it is kept, so measured once here
+        op_prev = self.occlusion(work, A_prev) if keep_current else None
         # the rectified template found the target where the estimate is, confidently, and the target
         # shows there unhidden: the search with the template as taken (its seed, θ = 0 and s = 1, wins
         # when θ, s went wrong under partial occlusion) is skipped unless the config asks for it
         confirmed = (keep_current and first.score >= self.config.match_threshold
                      and np.all(np.isfinite(first.center))
                      and np.linalg.norm(first.center - c_prev) <= self.config.reinit_px
-                     and occlusion_of(A_prev) <= AS_TAKEN_SKIP_OCCLUSION)
+                     and op_prev <= AS_TAKEN_SKIP_OCCLUSION)
         if rectified is not self.template and (self.config.always_search_as_taken or not confirmed):
             matches.append((self.matcher.match(search, self.template), np.eye(3)))
         m = max(matches, key=lambda mk: mk[0].score)[0]
@@ -314,7 +309,7 @@ class Aligner:
             candidates = [sd for match, sd in seeds if match is m] or [A_prev]
         best = None
         for cand in candidates:
-            op = occlusion_of(cand)
+            op = op_prev if cand is A_prev and op_prev is not None else self.occlusion(work, cand)
             if best is None or op < best[1]:
                 best = (cand, op)
         seed, op = best
