@@ -33,11 +33,14 @@ from hvs_sim.tracking.occlusion import (
     GAIN_BIN,
     GAIN_MIN_LEVEL,
     GAIN_RANGE,
+    MIN_SUPPORT,
+    OcclusionReference,
     _log_ratio_counts,
     aligned_patch,
     exposure_gain,
+    occlusion_fraction,
 )
-from hvs_sim.tracking.warp import apply, pose_to_matrix, warp_image
+from hvs_sim.tracking.warp import apply, pose_to_matrix, translate, warp_image
 
 ROI = (120, 90, 96, 64)
 
@@ -346,7 +349,11 @@ def test_the_hybrid_runs_the_fast_lk_and_its_variants_keep_what_they_need():
     assert "pool2" not in HYBRID_LK.levels and HYBRID_LK.channels == 8
     full = make_tracker("hybrid_full_lk")
     assert full.config.lk.levels == ("pool2", "pool1", "conv1_2") and full.config.lk.channels is None
-    assert full.config.margin == 8 and full.config.always_search_as_taken
+    assert full.config.margin == 8 and full.config.always_search_as_taken and not full.config.search_near_first
+    assert (full.config.lk.eps, full.config.lk.coarse_eps) == (LKConfig().eps, LKConfig().coarse_eps)
+    assert fast.config.search_near_first and HYBRID_LK.eps > LKConfig().eps
+    assert not make_tracker("deep_lk").config.search_near_first
+    assert not make_tracker("hybrid_residual").config.search_near_first
     # the residual regressor reads pool2: its variants keep deep_lk's LK
     assert "pool2" in make_tracker("hybrid_residual").config.lk.levels
     assert make_tracker("deep_lk").config.lk == LKConfig()
@@ -361,5 +368,134 @@ def test_the_hybrid_runs_the_fast_lk_and_its_variants_keep_what_they_need():
         make_tracker("hybrid", lk="fast")
     with pytest.raises(ConfigError, match="always_search_as_taken"):
         make_tracker("hybrid", always_search_as_taken="no")
+    with pytest.raises(ConfigError, match="search_near_first"):
+        make_tracker("hybrid", search_near_first=1)
     with pytest.raises(ConfigError, match="lk"):
         make_tracker("hybrid", lk={"chanels": 16})
+
+
+def _op_as_written(patch, template, inside, tau, normalise):
+    """occlusion_fraction as written before OcclusionReference: everything per call, np.histogram's gain."""
+    t, p = template.astype(np.float32), patch.astype(np.float32)
+
+    def differs(ref):
+        d = np.abs(p - ref) > tau
+        if d.ndim == 3:
+            d = d.any(axis=2)
+        if inside is not None:
+            d |= ~inside
+        return float(d.mean())
+
+    raw = differs(t)
+    if not normalise:
+        return raw
+    everywhere = np.ones(patch.shape[:2], bool) if inside is None else inside
+    op = differs(t * np.float32(_histogram_gain(patch, template, everywhere)))
+    return op if 1.0 - op >= MIN_SUPPORT else max(op, raw)
+
+
+def test_occlusion_reference_gives_the_per_call_values_exactly():
+    img = texture(6)
+    template = img[40:100, 60:150]
+    checked = 0
+    for gain in (0.55, 0.9, 1.0, 1.3, 1.9):
+        for grey in (False, True):
+            patch = np.clip(img[41:101, 62:152] * gain, 0, 255).astype(np.uint8)
+            patch[10:40, 20:60] = (30, 200, 90)  # an occluder
+            tpl = template
+            if grey:
+                patch, tpl = cv2.cvtColor(patch, cv2.COLOR_RGB2GRAY), cv2.cvtColor(template, cv2.COLOR_RGB2GRAY)
+            part = np.ones(patch.shape[:2], bool)
+            part[:, :12] = False
+            for inside in (None, np.ones(patch.shape[:2], bool), part):
+                for normalise in (False, True):
+                    want = _op_as_written(patch, tpl, inside, 30, normalise)
+                    for t in (tpl, tpl.astype(np.float32)):  # the table's path and the generic one
+                        ref = OcclusionReference(t, 30, normalise)
+                        assert ref(patch, inside) == want
+                        assert occlusion_fraction(patch, t, inside, 30, normalise) == want
+                        checked += 1
+                    everywhere = np.ones(patch.shape[:2], bool) if inside is None else inside
+                    assert OcclusionReference(tpl).gain(patch, inside) == _histogram_gain(patch, tpl, everywhere)
+    assert checked == 120
+
+
+def test_match_near_finds_what_the_global_match_finds_there_and_nothing_beyond_its_window():
+    grey = cv2.cvtColor(texture(7), cv2.COLOR_RGB2GRAY)
+    matcher = GlobalMatcher()
+    template = grey[80:120, 100:156].copy()
+    frame = cv2.cvtColor(moved(texture(7), (3.4, -2.3, 0.0, 1.0), np.array([160.0, 120.0])), cv2.COLOR_RGB2GRAY)
+    search = matcher.prepare(frame)
+    m = matcher.match(search, template)
+    for offset in ((0.0, 0.0), (2.5, -1.5), (-4.0, 3.0)):
+        near = matcher.match_near(search, template, m.center + offset)
+        assert near is not None and near.second == -1.0
+        # the same place; NCC over a smaller region differs in its float32 rounding (OpenCV correlates by DFT)
+        assert np.abs(near.center - m.center).max() < 1e-3 and abs(near.score - m.score) < 1e-4
+    assert matcher.match_near(search, template, m.center + (15.0, 0.0)) is None  # the peak is beyond the window
+    assert matcher.match_near(search, np.full_like(template, 9), m.center) is None  # a blank template
+
+
+def _counting(f, calls: dict, name: str):
+    def counted(*a):
+        calls[name] += 1
+        return f(*a)
+    return counted
+
+
+def test_a_search_near_the_estimate_that_confirms_it_replaces_the_global_searches():
+    img = texture(10)
+    c = np.array([ROI[0] + (ROI[2] - 1) / 2, ROI[1] + (ROI[3] - 1) / 2])
+    pose = (1.0, -0.5, 0.05, 1.04)
+    for wrong, near_calls, global_calls in ((None, 1, 0), ("estimate", 1, 2), ("hidden", 0, 2)):
+        runs = []
+        for near_first in (True, False):
+            al = Aligner(DeepLKConfig(always_search_as_taken=False, search_near_first=near_first))
+            al.set_template(img, ROI)
+            A = pose_to_matrix((pose[0] + (12.0 if wrong == "estimate" else 0.0), *pose[1:]), c)
+            frame = moved(img, pose, c)
+            if wrong == "hidden":
+                frame[ROI[1]:ROI[1] + ROI[3], ROI[0]:ROI[0] + ROI[2] // 4] = 0
+            if wrong == "estimate":  # an unhidden look at the wrong place: the near search runs and does not confirm
+                al.occlusion = lambda work, cand: 0.05
+            calls = {"match": 0, "match_near": 0}
+            for name in calls:
+                setattr(al.matcher, name, _counting(getattr(al.matcher, name), calls, name))
+            runs.append(al.coarse(al.work_image(frame), A))
+            if near_first:
+                assert (calls["match_near"], calls["match"]) == (near_calls, global_calls), wrong
+        (m1, seed1, op1, cur1), (m2, seed2, op2, cur2) = runs
+        assert np.array_equal(seed1, seed2) and op1 == op2 and cur1 == cur2  # the same seed either way
+        assert abs(m1.score - m2.score) < 1e-4 and np.abs(m1.center - m2.center).max() < 1e-3
+        if wrong is None:
+            assert cur1 and np.linalg.norm(al.to_full(seed1)[:2, 2] - pose_to_matrix(pose, c)[:2, 2]) < 2.0
+
+
+def test_colour_near_the_patch_is_the_whole_working_image_there():
+    img = texture(11, shape=(480, 640))
+    al = Aligner(DeepLKConfig())
+    al.set_template(img, (250, 190, 120, 80))
+    whole = al.work_colour(img)
+    rng = np.random.default_rng(5)
+    reference = OcclusionReference(al.template_patch(whole), 30, True)
+    for i in range(60):
+        # drifted, turned, scaled and (every third) tilted warps, some running off the frame's edges
+        A = pose_to_matrix((rng.uniform(-140, 140), rng.uniform(-100, 100), rng.uniform(-0.5, 0.5), rng.uniform(0.7, 1.4)),
+                           al.c_work)
+        tilted = i % 3 == 0
+        if tilted:  # a homography: the whole image (OpenCV's perspective warp rounds a moved one differently)
+            A = A @ np.array([[1, 0, 0], [0, 1, 0], [rng.uniform(-1e-3, 1e-3), rng.uniform(-1e-3, 1e-3), 1]])
+        near, offset = al.work_colour_near(img, A)
+        x0, y0 = offset.astype(int)
+        assert np.array_equal(near, whole[y0:y0 + near.shape[0], x0:x0 + near.shape[1]])
+        assert (near.shape == whole.shape) == tilted or not np.all(np.isfinite(apply(A, al.t_corners)))
+        a = aligned_patch(whole, A, al.t_origin, (al.th, al.tw))
+        b = aligned_patch(near, translate(A, -offset), al.t_origin, (al.th, al.tw))
+        assert np.array_equal(a[1], b[1]), i
+        # the same samples but where OpenCV rounds a sample point to the other 1/32 px
+        changed = np.abs(a[0].astype(int) - b[0].astype(int))
+        assert np.mean(changed > 0) < 0.002 and changed.max() <= 2, i  # 300 warps: ≤ 0.04 %, by 1 level
+        assert abs(reference(*a) - reference(*b)) <= 0.001
+    odd = np.ascontiguousarray(img[:479])  # a height the working scale does not divide: the whole image
+    near, offset = al.work_colour_near(odd, np.eye(3))
+    assert np.array_equal(near, al.work_colour(odd)) and not offset.any()

@@ -27,7 +27,7 @@ from hvs_sim.tracking.feature_lk import HUBER_K, MAD_TO_SIGMA, AlignResult, Feat
 from hvs_sim.tracking.frames import roi_center, to_grey
 from hvs_sim.tracking.global_match import GlobalMatcher, Match
 from hvs_sim.tracking.nets.vgg import vgg16_pool2
-from hvs_sim.tracking.occlusion import TAU_PIX, aligned_patch, exposure_gain, occlusion_fraction
+from hvs_sim.tracking.occlusion import TAU_PIX, OcclusionReference, aligned_patch
 from hvs_sim.tracking.trackability import MIN_TRACKABILITY
 from hvs_sim.tracking.warp import apply, check_warp, is_affine, matrix_to_pose, pose_to_matrix, translate, warp_image
 from hvs_sim.validate import check_number
@@ -49,6 +49,9 @@ ECC_GAUSS = 5  # OpenCV's default pre-filter
 # most this: on a partly hidden target that search's seed was what kept the alignment on it (bark, `partial`,
 # natural benchmark: 84 frames ≤ 1 px without it against 125 with it)
 AS_TAKEN_SKIP_OCCLUSION = 0.1
+# work px kept around a patch's corners in Aligner.work_colour_near: bilinear sampling reads one pixel beyond
+# a sample point, so the crop's edge is never read where the frame's would not be
+COLOUR_CROP_MARGIN = 2
 # a mask costs accuracy at the template's edges (0.05 → 0.16 px on a clear hand-held clip), so ECC is
 # masked only when part of the target is hidden
 ECC_MASK_BELOW = 0.98
@@ -102,6 +105,9 @@ class DeepLKConfig:
     # (False, the hybrid's default: only when the rectified search does not confirm an unhidden estimate;
     # see Aligner.coarse)
     always_search_as_taken: bool = True
+    # search the rectified template near the current estimate first, and skip the global searches when
+    # that confirms an unhidden estimate (True, the hybrid's default; see Aligner.coarse)
+    search_near_first: bool = False
 
     def __post_init__(self):
         check_warp(self.warp)
@@ -109,7 +115,7 @@ class DeepLKConfig:
             raise ConfigError(f"lk must be an LKConfig (or, through make_tracker, a dict of its settings), got "
                               f"{type(self.lk).__name__}")
         for flag in ("residual", "verify_residual", "allow_untrackable", "normalise_exposure", "refine_intensity",
-                     "always_search_as_taken"):
+                     "always_search_as_taken", "search_near_first"):
             if not isinstance(getattr(self, flag), (bool, np.bool_)):
                 raise ConfigError(f"{flag} must be True or False, got {getattr(self, flag)!r}")
         if self.residual and self.warp != "similarity":
@@ -184,6 +190,29 @@ class Aligner:
         s = self.config.scale
         return frame if s == 1.0 else cv2.resize(frame, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
 
+    def work_colour_near(self, frame: np.ndarray, A_work: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The colour working image around the patch that A_work aligns, and the work-pixel position of its
+        top-left corner: pixel for pixel what work_colour(frame) holds there, without resizing the whole
+        frame. INTER_AREA at a scale of 1/k averages k×k blocks, so a crop that starts on a multiple of k
+        and spans whole blocks gives the same pixels. A patch warped from it (the warp moved by the offset) is
+        the same but where OpenCV's 1/32-px rounding of a sample point falls the other way (rare; the whole
+        image for a homography, whose warp rounds a moved matrix less alike)."""
+        s = self.config.scale
+        k = round(1.0 / s)
+        corners = apply(A_work, self.t_corners)
+        H, W = frame.shape[:2]
+        if (s == 1.0 or abs(k * s - 1.0) > 1e-9 or H % k or W % k or not is_affine(A_work)
+                or not np.all(np.isfinite(corners))):
+            return self.work_colour(frame), np.zeros(2)
+        m = COLOUR_CROP_MARGIN
+        x0, y0 = (max(0, int(np.floor(corners[:, i].min())) - m) for i in (0, 1))
+        x1 = min(W // k, int(np.ceil(corners[:, 0].max())) + m + 1)
+        y1 = min(H // k, int(np.ceil(corners[:, 1].max())) + m + 1)
+        if x1 - x0 < 2 or y1 - y0 < 2:
+            return self.work_colour(frame), np.zeros(2)
+        crop = frame[y0 * k:y1 * k, x0 * k:x1 * k]
+        return cv2.resize(crop, None, fx=s, fy=s, interpolation=cv2.INTER_AREA), np.array([x0, y0], float)
+
     def features(self, work: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> dict[str, torch.Tensor]:
         t0 = time.perf_counter()
         crop = np.ascontiguousarray(work[y0:y1, x0:x1], np.float32)
@@ -214,6 +243,7 @@ class Aligner:
         work = self.work_image(frame)
         x, y, w, h = roi
         self.template_full = self.full_grey[y:y + h, x:x + w].astype(np.float32)
+        self.full_reference = OcclusionReference(self.template_full)  # its exposure gain (refine_intensity)
         self.template_ecc = ecc_template(self.full_grey, roi, ECC_GAUSS)  # for refine_intensity (ecc.py)
         self.full_origin = np.array([x, y], float)
         s = self.config.scale
@@ -222,6 +252,7 @@ class Aligner:
         self.tw, self.th = max(8, round(w * s)), max(8, round(h * s))
         self.t_origin = self.c_work - np.array([(self.tw - 1) / 2.0, (self.th - 1) / 2.0])
         self.template, _ = aligned_patch(work, np.eye(3), self.t_origin, (self.th, self.tw))
+        self.reference = OcclusionReference(self.template, self.config.tau_pix, self.config.normalise_exposure)
         self.init_work = work  # the template's view, to rectify the search template by the current θ, s
         self.search_template, self._rectified_for = self.template, (0.0, 1.0)
         self.rho = max(self.tw, self.th) / 2.0
@@ -261,7 +292,7 @@ class Aligner:
 
     def occlusion(self, work: np.ndarray, A_work: np.ndarray) -> float:
         patch, inside = aligned_patch(work, A_work, self.t_origin, (self.th, self.tw))
-        return occlusion_fraction(patch, self.template, inside, self.config.tau_pix, self.config.normalise_exposure)
+        return self.reference(patch, inside)
 
     def coarse(self, work: np.ndarray, A: np.ndarray, keep_current: bool = True
                ) -> tuple[Match, np.ndarray, float, bool]:
@@ -273,25 +304,29 @@ class Aligner:
         while the current estimate still sits on the visible part of the target.
         The search uses the template rectified by the current θ, s and, unless that search confirms an
         unhidden estimate (`always_search_as_taken`, AS_TAKEN_SKIP_OCCLUSION), the template as taken; a
-        match of the latter seeds θ = 0, s = 1. With keep_current=False (the paper's Deep LK
+        match of the latter seeds θ = 0, s = 1. With `search_near_first` the rectified template is first
+        searched only near the estimate; when that confirms it, no global search runs and the estimate is
+        the seed, as it would be after them unless a look-alike elsewhere showed the target less hidden
+        than the ≤ AS_TAKEN_SKIP_OCCLUSION it shows here. With keep_current=False (the paper's Deep LK
         baseline) only global-match seeds are considered.
         Returns (match, seed warp, OP_t at the seed, whether the seed is the current estimate).
         """
         A_prev = self.to_work(A)
         rectified = self.rectified_template(A)
-        search = self.matcher.prepare(work)  # shared by both searches
-        matches = [(self.matcher.match(search, rectified), A_prev)]
+        search = self.matcher.prepare(work)  # shared by all searches
         c_prev = apply(A_prev, self.c_work[None])[0]
-        first = matches[0][0]
         # OP_t at the current estimate: a candidate whenever it is kept, so measured once here
         op_prev = self.occlusion(work, A_prev) if keep_current else None
+        if keep_current and self.config.search_near_first and op_prev <= AS_TAKEN_SKIP_OCCLUSION:
+            near = self.matcher.match_near(search, rectified, c_prev)
+            if self._confirms(near, c_prev):
+                return near, A_prev, op_prev, True
+        matches = [(self.matcher.match(search, rectified), A_prev)]
+        first = matches[0][0]
         # the rectified template found the target where the estimate is, confidently, and the target
         # shows there unhidden: the search with the template as taken (its seed, θ = 0 and s = 1, wins
         # when θ, s went wrong under partial occlusion) is skipped unless the config asks for it
-        confirmed = (keep_current and first.score >= self.config.match_threshold
-                     and np.all(np.isfinite(first.center))
-                     and np.linalg.norm(first.center - c_prev) <= self.config.reinit_px
-                     and op_prev <= AS_TAKEN_SKIP_OCCLUSION)
+        confirmed = keep_current and self._confirms(first, c_prev) and op_prev <= AS_TAKEN_SKIP_OCCLUSION
         if rectified is not self.template and (self.config.always_search_as_taken or not confirmed):
             matches.append((self.matcher.match(search, self.template), np.eye(3)))
         m = max(matches, key=lambda mk: mk[0].score)[0]
@@ -314,6 +349,11 @@ class Aligner:
                 best = (cand, op)
         seed, op = best
         return m, seed, op, seed is A_prev
+
+    def _confirms(self, m: Match | None, c_prev: np.ndarray) -> bool:
+        """Whether a match finds the target confidently where the estimate (centre c_prev) has it."""
+        return (m is not None and m.score >= self.config.match_threshold and bool(np.all(np.isfinite(m.center)))
+                and np.linalg.norm(m.center - c_prev) <= self.config.reinit_px)
 
     def lk(self, work: np.ndarray, A_work: np.ndarray) -> LKOutput | None:
         """Plain feature LK from A_work on a crop around it, or None when the crop is too small
@@ -409,7 +449,7 @@ class Aligner:
         W = (A_full @ T).astype(np.float32)
         # template pixels that the frame shows as they were (not an occluder), as in OP_t
         patch, inside = aligned_patch(self.full_grey, A_full, self.full_origin, self.template_full.shape)
-        gain = exposure_gain(patch, self.template_full, inside) if self.config.normalise_exposure else 1.0
+        gain = self.full_reference.gain(patch, inside) if self.config.normalise_exposure else 1.0
         seen = inside & (np.abs(patch.astype(np.float32) - gain * self.template_full) < self.config.tau_pix)
         if seen.mean() < MIN_VALID:
             return None

@@ -8,7 +8,7 @@ import numpy as np
 from hvs_sim.tracking.base import Estimate, Tracker
 from hvs_sim.tracking.ecc import check_gauss, ecc_template, find_transform
 from hvs_sim.tracking.frames import to_grey
-from hvs_sim.tracking.occlusion import TAU_PIX, aligned_patch, occlusion_fraction
+from hvs_sim.tracking.occlusion import TAU_PIX, OcclusionReference, aligned_patch
 from hvs_sim.tracking.warp import check_warp, project_similarity
 from hvs_sim.validate import check_number
 
@@ -24,11 +24,12 @@ class _GreyTemplate(Tracker):
     def _set_template(self, grey: np.ndarray, roi) -> None:
         x, y, w, h = roi
         self.template = grey[y:y + h, x:x + w].copy()
+        self.reference = OcclusionReference(self.template, TAU_PIX)
         self.origin = np.array([x, y], float)
 
     def occlusion(self, grey: np.ndarray, A: np.ndarray) -> float:
         patch, inside = aligned_patch(grey, A, self.origin, self.template.shape)
-        return occlusion_fraction(patch, self.template, inside, TAU_PIX)
+        return self.reference(patch, inside)
 
 
 class SiftTracker(_GreyTemplate):

@@ -34,6 +34,7 @@ import torch.nn.functional as F
 
 from hvs_sim.errors import ConfigError
 from hvs_sim.tracking.nets.vgg import STRIDES
+from hvs_sim.tracking.occlusion import median_1d
 from hvs_sim.tracking.warp import (
     WARP_PARAMS,
     apply,
@@ -136,15 +137,6 @@ def gradient_basis(gx: np.ndarray, gy: np.ndarray, k: int) -> np.ndarray | None:
     return np.ascontiguousarray(vt[:k].T, dtype=np.float32)
 
 
-def _median(r: np.ndarray) -> float:
-    """np.median of a 1-D array (the same value), without its generic-axis overhead."""
-    h = r.size // 2
-    if r.size % 2:
-        return float(np.partition(r, h)[h])
-    p = np.partition(r, (h - 1, h))
-    return float(np.mean(p[h - 1:h + 1]))
-
-
 def _inverse_update(dp: np.ndarray, warp: str) -> np.ndarray:
     """W(Δp)⁻¹: closed form for the similarity [[c, −b, tx], [b, c, ty]] (c = 1 + a), else a 3×3 inverse."""
     if warp != "similarity":
@@ -192,6 +184,11 @@ class _Level:
     jy: np.ndarray = None
     hess_t: np.ndarray = None
     basis: np.ndarray | None = None  # (C, k) projection of the numpy loop's features (LKConfig.channels)
+    basis_rows: torch.Tensor | None = None  # the same as a contiguous (k, C) tensor, for F.linear
+
+    def __post_init__(self):
+        if self.basis is not None:
+            self.basis_rows = torch.from_numpy(np.ascontiguousarray(self.basis.T))
 
 
 @dataclass
@@ -300,8 +297,9 @@ class FeatureICLK:
             last_size = None
             fmap = channels_last(feats[level.name])
             if level.basis is not None:
-                # torch, not numpy: numpy's matmul would wake BLAS's own thread pool beside torch's
-                flat = torch.from_numpy(fmap.reshape(-1, fmap.shape[2])) @ torch.from_numpy(level.basis)
+                # torch, not numpy: numpy's matmul would wake BLAS's own thread pool beside torch's (4.5 ms
+                # against 0.1); F.linear, not @: a third less time on these shapes
+                flat = F.linear(torch.from_numpy(fmap.reshape(-1, fmap.shape[2])), level.basis_rows)
                 fmap = flat.numpy().reshape(*fmap.shape[:2], -1)  # (H, W, k)
             # work px → this level's feature grid: u = (x − shift) / σ; the crop's usable box in u
             shift = np.asarray(origin, float) + (level.stride - 1) / 2.0
@@ -332,7 +330,7 @@ class FeatureICLK:
                 err -= T
                 r = np.sqrt(np.einsum("nc,nc->n", err, err), dtype=np.float64)
                 if self.config.robust:
-                    k = HUBER_K * max(MAD_TO_SIGMA * _median(r), 1e-6)
+                    k = HUBER_K * max(MAD_TO_SIGMA * median_1d(r), 1e-6)
                     w = np.minimum(k / np.maximum(r, 1e-12), 1.0)  # Huber: 1 for r ≤ k, k / r beyond
                 else:
                     w = np.ones_like(r)

@@ -89,17 +89,40 @@ class GlobalMatcher:
             second = _second_peak(resp, x, y, min(tsmall.shape))
             # top-left corner at full working resolution, then a local search around it
             x0, y0 = round((x + 0.5) * f - 0.5), round((y + 0.5) * f - 0.5)
-            r = self.window + f
-            xa, ya = max(0, x0 - r), max(0, y0 - r)
-            xb, yb = min(grey.shape[1] - tw, x0 + r), min(grey.shape[0] - th, y0 + r)
-            region = grey[ya:yb + th, xa:xb + tw]
-        else:
-            xa = ya = 0
-            region = grey
-        resp = np.nan_to_num(cv2.matchTemplate(region, template, cv2.TM_CCOEFF_NORMED), nan=-1.0)
+            center, score, _ = self._search_window(grey, template, x0, y0, self.window + f)
+            return Match(center=center, score=score, second=float(second))
+        resp = np.nan_to_num(cv2.matchTemplate(grey, template, cv2.TM_CCOEFF_NORMED), nan=-1.0)
         _, score, _, (x, y) = cv2.minMaxLoc(resp)
-        if region is grey:
-            second = _second_peak(resp, x, y, min(th, tw))
+        second = _second_peak(resp, x, y, min(th, tw))
         sx, sy = _subpixel(resp, x, y)
-        center = np.array([xa + sx + (tw - 1) / 2.0, ya + sy + (th - 1) / 2.0])
+        center = np.array([sx + (tw - 1) / 2.0, sy + (th - 1) / 2.0])
         return Match(center=center, score=float(score), second=float(second))
+
+    def match_near(self, grey: np.ndarray | SearchImage, template: np.ndarray, center: np.ndarray) -> Match | None:
+        """The match within `window` px of `center` (the template's centre, frame pixels), at full working
+        resolution: what `match` finds there when its peak is near `center`, at the cost of its last step
+        only. None when the best place is on the window's edge (the peak lies outside it) or the window
+        leaves the frame. `second` is not measured (−1): nothing outside the window was searched."""
+        search = grey if isinstance(grey, SearchImage) else self.prepare(grey)
+        th, tw = template.shape
+        if _std(template) < 1e-3 or search.std < 1e-3 or not np.all(np.isfinite(center)):
+            return None
+        x0, y0 = round(center[0] - (tw - 1) / 2.0), round(center[1] - (th - 1) / 2.0)
+        found, score, interior = self._search_window(search.grey, template, x0, y0, self.window)
+        return Match(center=found, score=score) if interior else None
+
+    @staticmethod
+    def _search_window(grey: np.ndarray, template: np.ndarray, x0: int, y0: int, r: int
+                       ) -> tuple[np.ndarray, float, bool]:
+        """NCC of the template with its top-left corner within r px of (x0, y0): the sub-pixel centre of the
+        best place, its score, and whether that place has a searched neighbour on every side."""
+        th, tw = template.shape
+        xa, ya = max(0, x0 - r), max(0, y0 - r)
+        xb, yb = min(grey.shape[1] - tw, x0 + r), min(grey.shape[0] - th, y0 + r)
+        if xb < xa or yb < ya:
+            return np.array([np.nan, np.nan]), -1.0, False
+        resp = np.nan_to_num(cv2.matchTemplate(grey[ya:yb + th, xa:xb + tw], template, cv2.TM_CCOEFF_NORMED), nan=-1.0)
+        _, score, _, (x, y) = cv2.minMaxLoc(resp)
+        interior = 0 < x < resp.shape[1] - 1 and 0 < y < resp.shape[0] - 1
+        sx, sy = _subpixel(resp, x, y)
+        return np.array([xa + sx + (tw - 1) / 2.0, ya + sy + (th - 1) / 2.0]), float(score), interior

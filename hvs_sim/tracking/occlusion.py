@@ -31,16 +31,44 @@ _N_BINS = max(1, int(np.ceil((_LOG_HI - _LOG_LO) / GAIN_BIN)))
 _EDGES = np.linspace(_LOG_LO, _LOG_HI, _N_BINS + 1)  # the edges np.histogram(bins=_N_BINS, range=…) uses
 
 
-def _log_ratio_counts(r: np.ndarray) -> np.ndarray:
-    """np.histogram(r, bins=_N_BINS, range=(_LOG_LO, _LOG_HI))[0] for r inside that range, without its
-    generic-path overhead (a third of exposure_gain's time): a first guess of each bin, then the same
-    correction against the edges that np.histogram makes, so every count is the same."""
+def _bin_index(r: np.ndarray) -> np.ndarray:
+    """The np.histogram(r, bins=_N_BINS, range=(_LOG_LO, _LOG_HI)) bin of each r inside that range,
+    without its generic-path overhead: a first guess of each bin, then the same correction against
+    the edges that np.histogram makes, so every bin is the one it gives."""
     x = r.astype(np.float64)
     idx = ((x - _LOG_LO) * (_N_BINS / (_LOG_HI - _LOG_LO))).astype(np.intp)
     np.clip(idx, 0, _N_BINS - 1, out=idx)
     idx -= x < _EDGES[idx]
     idx += (x >= _EDGES[idx + 1]) & (idx != _N_BINS - 1)
-    return np.bincount(idx, minlength=_N_BINS)
+    return idx
+
+
+def _log_ratio_counts(r: np.ndarray) -> np.ndarray:
+    """np.histogram(r, bins=_N_BINS, range=(_LOG_LO, _LOG_HI))[0] for r inside that range."""
+    return np.bincount(_bin_index(r), minlength=_N_BINS)
+
+
+def _log_ratios(p: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Per-pixel log ratio patch / template (float32): the gain's evidence (exposure_gain)."""
+    return np.log(np.maximum(p.astype(np.float32), 0.5) / t.astype(np.float32))
+
+
+def _ratio_tables() -> tuple[np.ndarray, np.ndarray]:
+    """For every pair of 8-bit values (index 256·p + t): the log ratio, as _log_ratios gives it, and
+    its histogram bin (−1 outside GAIN_RANGE or for a template value too dark to carry a ratio).
+    Built once: an 8-bit patch then finds both with one lookup per pixel."""
+    if not _TABLES:
+        v = np.arange(256, dtype=np.float32)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = _log_ratios(np.repeat(v, 256), np.tile(v, 256))
+        keep = (np.tile(v, 256) > GAIN_MIN_LEVEL) & (r >= _LOG_LO) & (r <= _LOG_HI)
+        bins = np.full(r.size, -1, np.intp)
+        bins[keep] = _bin_index(r[keep])
+        _TABLES.extend([np.where(keep, r, np.float32(0)), bins])
+    return _TABLES[0], _TABLES[1]
+
+
+_TABLES: list[np.ndarray] = []
 
 
 def aligned_patch(grey: np.ndarray, A: np.ndarray, origin: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
@@ -62,52 +90,106 @@ def aligned_patch(grey: np.ndarray, A: np.ndarray, origin: np.ndarray, shape: tu
 def _all_inside(M: np.ndarray, shape: tuple[int, int], frame_shape: tuple[int, int]) -> bool:
     """Whether every pixel centre of a (h, w) patch lands inside the frame under M: its four corner
     centres do (the patch is convex, and so is its image under an affine map or a homography that
-    keeps all four in front)."""
+    keeps all four in front). In Python floats: four 3-vectors cost less than numpy's calls on them."""
     h, w = shape
-    corners = np.array([[0.0, 0.0, 1.0], [w - 1.0, 0.0, 1.0], [w - 1.0, h - 1.0, 1.0], [0.0, h - 1.0, 1.0]]) @ M.T
-    if np.any(corners[:, 2] <= 0):
-        return False
-    x, y = corners[:, 0] / corners[:, 2], corners[:, 1] / corners[:, 2]
     H, W = frame_shape
-    return bool(x.min() >= 0 and y.min() >= 0 and x.max() <= W - 1 and y.max() <= H - 1)
+    (a, b, c), (d, e, f), (g, k, m) = M.tolist()
+    for u, v in ((0.0, 0.0), (w - 1.0, 0.0), (w - 1.0, h - 1.0), (0.0, h - 1.0)):
+        z = g * u + k * v + m
+        if z <= 0:
+            return False
+        x, y = (a * u + b * v + c) / z, (d * u + e * v + f) / z
+        if not (0 <= x <= W - 1 and 0 <= y <= H - 1):
+            return False
+    return True
+
+
+class OcclusionReference:
+    """A template prepared once for OP_t and the exposure gain against many patches: what depends
+    on the template alone (its float copy, its bright-enough pixels, their table keys) is done here,
+    not on every call. The values are the same as computing everything per call; 8-bit templates and
+    patches take the log ratios and their bins from one table lookup (_ratio_tables)."""
+
+    def __init__(self, template: np.ndarray, tau: float = TAU_PIX, normalise_exposure: bool = False):
+        self.template, self.tau, self.normalise = template, float(tau), bool(normalise_exposure)
+        self.t32 = template.astype(np.float32)
+        self.bright = self.t32 > GAIN_MIN_LEVEL
+        self.tabled = template.dtype == np.uint8
+        if self.tabled:
+            self.bright_at = np.flatnonzero(self.bright)  # C order, as boolean indexing takes them
+            self.bright_t = template.reshape(-1)[self.bright_at].astype(np.intp)
+
+    def _ratios(self, patch: np.ndarray, inside: np.ndarray | None) -> tuple[np.ndarray, np.ndarray] | None:
+        """Log ratios inside GAIN_RANGE over the visible bright-enough pixels, and their bins; None when
+        fewer than 16 pixels carry a ratio."""
+        visible = inside is None or bool(inside.all())
+        if self.tabled and patch.dtype == np.uint8 and visible:
+            if self.bright_at.size < 16:
+                return None
+            ratio, bins = _ratio_tables()
+            key = patch.reshape(-1)[self.bright_at].astype(np.intp)
+            key *= 256
+            key += self.bright_t
+            b = bins[key]
+            keep = b >= 0
+            return ratio[key[keep]], b[keep]
+        use = self.bright if visible else self.bright & (inside[..., None] if self.bright.ndim == 3 else inside)
+        if np.count_nonzero(use) < 16:
+            return None
+        r = _log_ratios(patch[use], self.t32[use])
+        r = r[(r >= _LOG_LO) & (r <= _LOG_HI)]
+        return r, _bin_index(r)
+
+    def gain(self, patch: np.ndarray, inside: np.ndarray | None = None) -> float:
+        """One gain g (patch ≈ g · template): the mode of the log ratios over visible, bright-enough
+        pixels (module docstring), within GAIN_RANGE; 1 when too few pixels carry a ratio."""
+        found = self._ratios(patch, inside)
+        if found is None or found[0].size < 16:
+            return 1.0
+        r, bins = found
+        counts = np.bincount(bins, minlength=_N_BINS)
+        hist = counts.copy()  # a ratio on a bin edge counts for both sides: counts convolved with [1, 1, 1]
+        hist[1:] += counts[:-1]
+        hist[:-1] += counts[1:]
+        k = int(np.argmax(hist))
+        near = r[np.abs(r - 0.5 * (_EDGES[k] + _EDGES[k + 1])) <= 1.5 * GAIN_BIN]
+        # np.median's float32 value, and its float32 exp, without np.median's generic-axis overhead
+        return float(np.exp(np.float32(median_1d(near)))) if near.size else 1.0
+
+    def _differs(self, p32: np.ndarray, ref: np.ndarray, inside: np.ndarray | None) -> float:
+        diff = np.abs(p32 - ref) > self.tau
+        if diff.ndim == 3:  # colour: a pixel differs when any channel does
+            diff = diff[..., 0] | diff[..., 1] | diff[..., 2] if diff.shape[2] == 3 else diff.any(axis=2)
+        if inside is not None:
+            diff |= ~inside
+        return np.count_nonzero(diff) / diff.size
+
+    def __call__(self, patch: np.ndarray, inside: np.ndarray | None = None) -> float:
+        """OP_t in [0, 1]; pixels that fall outside the frame count as occluded (not visible). With
+        `normalise_exposure` the template is scaled by the exposure gain first (module docstring)."""
+        p32 = patch.astype(np.float32)
+        raw = self._differs(p32, self.t32, inside)
+        if not self.normalise:
+            return raw
+        op = self._differs(p32, self.t32 * np.float32(self.gain(patch, inside)), inside)
+        return op if 1.0 - op >= MIN_SUPPORT else max(op, raw)
+
+
+def median_1d(r: np.ndarray) -> float:
+    """np.median of a 1-D array (the same value), without its generic-axis overhead."""
+    h = r.size // 2
+    if r.size % 2:
+        return float(np.partition(r, h)[h])
+    p = np.partition(r, (h - 1, h))
+    return float(np.mean(p[h - 1:h + 1]))
 
 
 def exposure_gain(patch: np.ndarray, template: np.ndarray, inside: np.ndarray | None = None) -> float:
-    """One gain g (patch ≈ g · template): the mode of the log ratios over visible, bright-enough
-    pixels (module docstring), within GAIN_RANGE; 1 when too few pixels carry a ratio."""
-    t = template.astype(np.float32)
-    p = patch.astype(np.float32)
-    use = t > GAIN_MIN_LEVEL
-    if inside is not None:
-        use &= inside[..., None] if use.ndim == 3 else inside
-    if np.count_nonzero(use) < 16:
-        return 1.0
-    r = np.log(np.maximum(p[use], 0.5) / t[use])
-    r = r[(r >= _LOG_LO) & (r <= _LOG_HI)]
-    if r.size < 16:
-        return 1.0
-    hist = np.convolve(_log_ratio_counts(r), np.ones(3), mode="same")  # a ratio on a bin edge counts for both sides
-    k = int(np.argmax(hist))
-    near = r[np.abs(r - 0.5 * (_EDGES[k] + _EDGES[k + 1])) <= 1.5 * GAIN_BIN]
-    return float(np.exp(np.median(near))) if near.size else 1.0
-
-
-def _differs(patch: np.ndarray, ref: np.ndarray, tau: float, inside: np.ndarray | None) -> float:
-    diff = np.abs(patch.astype(np.float32) - ref) > tau
-    if diff.ndim == 3:  # colour
-        diff = diff.any(axis=2)
-    if inside is not None:
-        diff |= ~inside
-    return float(diff.mean())
+    """OcclusionReference(template).gain(patch, inside), for a template used once."""
+    return OcclusionReference(template).gain(patch, inside)
 
 
 def occlusion_fraction(patch: np.ndarray, template: np.ndarray, inside: np.ndarray | None = None,
                        tau: float = TAU_PIX, normalise_exposure: bool = False) -> float:
-    """OP_t in [0, 1]; pixels that fall outside the frame count as occluded (not visible). With
-    `normalise_exposure` the template is scaled by the exposure gain first (module docstring)."""
-    raw = _differs(patch, template.astype(np.float32), tau, inside)
-    if not normalise_exposure:
-        return raw
-    gain = exposure_gain(patch, template, inside)
-    op = _differs(patch, template.astype(np.float32) * np.float32(gain), tau, inside)
-    return op if 1.0 - op >= MIN_SUPPORT else max(op, raw)
+    """OP_t of `patch` against `template` (OcclusionReference, for a template used once)."""
+    return OcclusionReference(template, tau, normalise_exposure)(patch, inside)
