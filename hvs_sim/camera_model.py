@@ -37,6 +37,7 @@ from hvs_sim.errors import ConfigError, choice_error
 
 NOISE_STREAM = 23  # seed stream of the sensor noise (rng = default_rng([seed, NOISE_STREAM, frame]))
 DRIFT_STREAM = 29  # seed stream of the phases of auto-exposure drift and light changes
+STILL_STREAM = 31  # seed stream of the noise of still captures (Renderer.still_average), apart from the episode's
 NOISE_BANK_FRAMES = 3  # normals drawn once, read at two random offsets per frame: 2 ms instead of 10 ms
 SQRT_HALF = math.sqrt(0.5)
 AE_METER_SIZE = (80, 60)  # auto-exposure meters a thumbnail of the frame
@@ -284,8 +285,9 @@ class SensorState:
             a = 1.0 - math.exp(-dt / m.ae_time_s)
             self.gain = float(np.clip(math.exp((1 - a) * math.log(self.gain) + a * math.log(want)), lo, hi))
 
-    def capture(self, linear: np.ndarray, frame: int, t: float, dt: float) -> np.ndarray:
-        """Linear radiance (H×W×3 float32, [0, 1]) → the uint8 RGB frame the camera delivers."""
+    def capture(self, linear: np.ndarray, frame: int, t: float, dt: float, stream: int = NOISE_STREAM) -> np.ndarray:
+        """Linear radiance (H×W×3 float32, [0, 1]) → the uint8 RGB frame the camera delivers. `stream` keys the
+        noise with `frame` (STILL_STREAM: frames that must not share noise with the episode's)."""
         m = self.model
         if m.ae_target > 0:
             metered = _meter(linear)
@@ -297,20 +299,20 @@ class SensorState:
             gain = 1.0
         signal = linear
         if m.white_e < math.inf or m.read_noise_e > 0:
-            signal = self._add_noise(linear, frame)
+            signal = self._add_noise(linear, frame, stream)
         out = encode(signal * np.float32(gain))
         if m.jpeg_quality:
             out = jpeg(out, m.jpeg_quality)
         return out
 
-    def _add_noise(self, linear: np.ndarray, frame: int) -> np.ndarray:
+    def _add_noise(self, linear: np.ndarray, frame: int, stream: int = NOISE_STREAM) -> np.ndarray:
         """Shot + read noise in electrons, returned in units of white_e. Gaussian approximation of Poisson."""
         m = self.model
         fw = m.white_e if m.white_e < math.inf else 1.0
         electrons = linear * np.float32(fw)
         var = (electrons if m.white_e < math.inf else 0.0) + np.float32(m.read_noise_e ** 2)
         # two windows at independent random offsets, summed: no frame's noise is a shifted copy of another's
-        o1, o2 = np.random.default_rng([self.seed, NOISE_STREAM, frame]).integers(0, self._bank.size - self._n, 2)
+        o1, o2 = np.random.default_rng([self.seed, stream, frame]).integers(0, self._bank.size - self._n, 2)
         z = (self._bank[o1: o1 + self._n] + self._bank[o2: o2 + self._n]).reshape(linear.shape) * np.float32(SQRT_HALF)
         return (electrons + np.sqrt(var) * z) / np.float32(fw)
 

@@ -120,7 +120,8 @@ def cmd_run(args) -> int:
         scenario = dataclasses.replace(scenario, start_offset=parse_start_offset(args.start_offset))
     config = LoopConfig(steps=args.steps, controller=args.controller, evaluate=not args.no_eval, pipeline=args.pipeline,
                         keep_frames=bool(args.rrd or args.spawn or args.figures), template_from=args.template_from,
-                        roi_inset_px=args.roi_inset)
+                        roi_inset_px=args.roi_inset, goal_frames=args.goal_frames,
+                        feature_filter=args.feature_filter)
     summary, _ = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,
                              tracker_settings=settings, figures=args.figures)
     brief = {k: summary[k] for k in ("converged", "steps_to_converge", "final_error_px", "final_pose_error_mm",
@@ -224,6 +225,7 @@ def _check_bench_options(args) -> None:
         return
     for flag, value in (("--episodes", args.episodes), ("--damping", args.damping),
                         ("--template-from", args.template_from), ("--roi-inset", args.roi_inset),
+                        ("--goal-frames", args.goal_frames), ("--feature-filter", args.feature_filter),
                         ("--extra-steps", args.extra_steps)):
         if value is not None:
             raise ConfigError(f"{flag} applies to `bench servo` only")
@@ -331,6 +333,7 @@ def _cmd_bench_sim(args) -> int:
         if args.extra_steps is not None and args.smoke:
             raise ConfigError("--extra-steps and --smoke disagree: a smoke run has its own 30 steps; give one")
         for opt, field in (("damping", "damping"), ("template_from", "template_from"), ("roi_inset", "roi_inset_px"),
+                           ("goal_frames", "goal_frames"), ("feature_filter", "feature_filter"),
                            ("extra_steps", "extra_steps")):  # servo-only settings the user gave
             if getattr(args, opt) is not None:
                 given[field] = getattr(args, opt)
@@ -457,6 +460,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="cut the template this many pixels inside the target's outline, which renders differently "
                         "from view to view (default: 8 with a goal template, fewer for a target too small for it; 0 "
                         "with a start template)")
+    p.add_argument("--feature-filter", type=float, default=None, metavar="ALPHA",
+                   help="α of the filter that blends the tracked corners with where the camera's own motion (the "
+                        "joints' forward kinematics) carries the last estimate, in [0, 1]; 0 = off (default 0.2 for "
+                        "tracked corners on six DOF, else off)")
+    p.add_argument("--goal-frames", type=int, default=None, metavar="N",
+                   help="frames of the still goal view averaged into the goal image, as a user teaching the goal "
+                        "averages a few grabs: the camera's noise and JPEG artefacts fall ~√N (default 64 with a goal "
+                        "template; refused with a start template)")
     p.add_argument("--pipeline", action="store_true",
                    help="track each frame in a second thread while the physics steps and the next frame renders: "
                         "about the longer of the two per step instead of their sum, at one frame of actuation latency")
@@ -504,7 +515,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"trackers to compare: {', '.join(TRACKER_NAMES)}; servo also ground_truth (the hybrid_* are "
                         "ablations, see hvs_sim/tracking/registry.py; default: the benchmark's set)")
     p.add_argument("--damping", type=float, default=None,
-                   help="servo only: damped pseudo-inverse, μ = damping × σ_max(L) (IBVSConfig.damping; default: 0.005 for "
+                   help="servo only: damped pseudo-inverse, μ = damping × σ_max(L) (IBVSConfig.damping; default: 0.002 for "
                         "tracked features on six DOF, else 0)")
     p.add_argument("--template-from", default=None, choices=TEMPLATE_VIEWS,
                    help="servo only: where the tracker's template comes from (as `run --template-from`; default: goal "
@@ -514,6 +525,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--roi-inset", type=int, default=None, metavar="PX",
                    help="servo only: cut the template this many pixels inside the target's outline (as `run "
                         "--roi-inset`; default: 8 with a goal template, 0 with a start one)")
+    p.add_argument("--goal-frames", type=int, default=None, metavar="N",
+                   help="servo only: frames averaged into the goal image (as `run --goal-frames`; default 64 with a goal "
+                        "template)")
+    p.add_argument("--feature-filter", type=float, default=None, metavar="ALPHA",
+                   help="servo only: α of the feature filter (as `run --feature-filter`; 0 = off; default 0.2 for tracked "
+                        "corners on six DOF)")
     p.add_argument("--imagery", default="sim", choices=("sim", "natural"),
                    help="track only: sim = rendered scenes (default); natural = photos and procedural pictures moved "
                         "like a hand-held phone, with a drawn person (hvs_sim/bench/natural.py)")

@@ -15,8 +15,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
-from hvs_sim.camera_model import undistort_points
+from hvs_sim.camera_model import distort_points, undistort_points
 from hvs_sim.control.arm import ArmDriver
+from hvs_sim.control.feature_filter import FeatureFilter
 from hvs_sim.control.ibvs import (
     CONTROLLERS,
     DOF_NAMES,
@@ -31,7 +32,7 @@ from hvs_sim.control.ibvs import (
 from hvs_sim.control.pbvs import PBVSController
 from hvs_sim.errors import ConfigError, HvsError, StateError, choice_error
 from hvs_sim.render.camera import CameraPose
-from hvs_sim.render.renderer import GroundTruth, Renderer
+from hvs_sim.render.renderer import MAX_STILL_FRAMES, GroundTruth, Renderer
 from hvs_sim.scene.scenarios import Scenario
 from hvs_sim.scene.world import Scene
 from hvs_sim.tracking import TRACKER_NAMES, Track, Tracker, make_tracker
@@ -47,6 +48,12 @@ IN_VIEW_MARGIN_PX = 2.0  # the target's corners must be this far inside the imag
 # bound is stated beside the 0.5 px image threshold rather than derived from it
 CONVERGE_MM, CONVERGE_DEG = 10.0, 1.0
 GOAL_ROI_INSET_PX = 8  # LoopConfig.roi_inset_px's default with a goal template (6-DOF servo benchmark, README)
+# LoopConfig.goal_frames' default: frames averaged into the goal image (2 s of a 30 Hz camera held at the goal). One
+# noisy JPEG frame froze its noise into the template and biased the tracked corners at the goal by ~0.1 px along L's
+# weak direction, ~40 mm and 3°; 16 frames left ~12 mm, 64 ~8 mm, 256 no better (episodes 300-305; README)
+GOAL_FRAMES = 64
+# LoopConfig.feature_filter's default for tracked corners on six DOF (control/feature_filter.py, README)
+FEATURE_FILTER_ALPHA = 0.1
 
 
 @dataclass(frozen=True)
@@ -76,6 +83,13 @@ class LoopConfig:
     # tracked corners 0.3–0.5 px off near the goal without an inset, 0.02–0.05 px with 8 px. None:
     # GOAL_ROI_INSET_PX with a goal template (less where the box would fall under MIN_ROI), 0 with a start one
     roi_inset_px: int | None = None
+    # frames of the still scene averaged into the goal image (Renderer.still_average; 1 = one frame). None:
+    # GOAL_FRAMES with a goal template; a number with a start template is refused (it would do nothing)
+    goal_frames: int | None = None
+    # α of the feature filter (control/feature_filter.py): the tracked corners blended with where the camera's
+    # own motion (forward kinematics) carries the last estimate; 0 = off. None: FEATURE_FILTER_ALPHA for tracked
+    # corners on six DOF, off otherwise (exact features need none; the 4-DOF path is the paper's)
+    feature_filter: float | None = None
     # track frame k in a second thread while the physics steps and frame k + 1 renders (ServoLoop.run): the step
     # costs about the longer of the two instead of their sum, and frame k's command acts one frame later
     pipeline: bool = False
@@ -87,6 +101,10 @@ class LoopConfig:
             raise choice_error("template_from", self.template_from, TEMPLATE_VIEWS)
         if self.roi_inset_px is not None:
             check_number("roi_inset_px", self.roi_inset_px, 0, integer=True)
+        if self.feature_filter is not None:
+            check_number("feature_filter (alpha)", self.feature_filter, 0, 1)
+        if self.goal_frames is not None:
+            check_number("goal_frames", self.goal_frames, 1, MAX_STILL_FRAMES, integer=True)
         if not (self.converge_mm > 0 and self.converge_deg > 0):
             raise ConfigError(f"converge_mm and converge_deg must be > 0, got {self.converge_mm}, {self.converge_deg}")
         if isinstance(self.steps, bool) or not isinstance(self.steps, (int, np.integer)) or not 1 <= self.steps <= MAX_STEPS:
@@ -123,7 +141,9 @@ class StepRecord:
     dofs: tuple[str, ...] = DOF_NAMES  # the DOFs the controller commands
     target_in_view: bool = True  # all four true target corners inside the image
     damping: float = 0.0  # the IBVS damping the loop used (IBVSConfig.damping, resolved)
-    template: tuple[str, int] = ("start", 0)  # where the template came from and its inset (LoopConfig, resolved)
+    feature_filter: float = 0.0  # the feature filter's α the loop used (LoopConfig.feature_filter, resolved; 0 = off)
+    # where the template came from, its inset and the frames averaged into a goal image (LoopConfig, resolved)
+    template: tuple[str, int, int | None] = ("start", 0, None)
     # wall ms of the step when its stages overlap (LoopConfig.pipeline): from the end of the step before (so the
     # consumer's time, e.g. logging, counts in the next step) to this record; a pipelined step's render,
     # ground_truth and physics are those of the next frame, made while this one was tracked (0 on the last step).
@@ -203,7 +223,14 @@ class ServoLoop:
         if damping is None:  # exact features need none; tracked ones on six DOF do (IBVSConfig.damping)
             damping = TRACKED_6DOF_DAMPING if tracked_6dof and config.controller == "ibvs" else 0.0  # PBVS: no L⁺
         self.ibvs_config = dataclasses.replace(config.ibvs, damping=damping)
+        alpha = config.feature_filter
+        self.filter_alpha = (FEATURE_FILTER_ALPHA if tracked_6dof else 0.0) if alpha is None else float(alpha)
         self.template_from = config.template_from or ("goal" if tracked_6dof else "start")
+        if self.template_from == "start" and config.goal_frames is not None:
+            raise ConfigError(f"goal_frames ({config.goal_frames}) averages frames into a goal image, but this run's "
+                              "template comes from its first frame (template_from='start'): leave goal_frames out, or "
+                              "use template_from='goal'")
+        self.goal_frames = None if self.template_from == "start" else (config.goal_frames or GOAL_FRAMES)
 
     def controlled_pose_error(self, pose_error: np.ndarray) -> tuple[float, float]:
         """(mm, deg) of the pose error in the DOFs this loop controls."""
@@ -221,6 +248,11 @@ class ServoLoop:
         dist = self.renderer.sensor.distortion
         return undistort_points(self.renderer.K, dist, pts) if dist else pts
 
+    def _distort(self, pts: np.ndarray) -> np.ndarray:
+        """Inverse of `_pinhole`: pinhole points back into the camera's image."""
+        dist = self.renderer.sensor.distortion
+        return distort_points(self.renderer.K, dist, pts) if dist else pts
+
     def default_inset(self, roi) -> int:
         """LoopConfig.roi_inset_px=None: GOAL_ROI_INSET_PX for a goal template, less where the box would fall
         under MIN_ROI (a target small in the image); 0 for a start template, whose box is thin at large rolls."""
@@ -230,10 +262,11 @@ class ServoLoop:
 
     def goal_image(self) -> tuple[np.ndarray, np.ndarray]:
         """(frame, target corners) of the goal image: the camera at the reference pose at time 0, the people
-        left out (a user teaches the goal in a clear scene), through this run's camera model."""
+        left out (a user teaches the goal in a clear scene), through this run's camera model: the mean of
+        `goal_frames` frames of it."""
         teacher = Renderer(self.scene, people=False)  # its own sensor state: the episode's frames are unchanged
         with self.scene.posed(self.scene.reference_configuration()):
-            return teacher.rgb(), teacher.ground_truth(occlusion=False).corners
+            return teacher.still_average(self.goal_frames), teacher.ground_truth(occlusion=False).corners
 
     def __iter__(self) -> Iterator[StepRecord]:
         return self.run()
@@ -279,7 +312,7 @@ class ServoLoop:
 
     def _steps(self, pool: ThreadPoolExecutor | None) -> Iterator[StepRecord]:
         scene, r, cfg = self.scene, self.renderer, self.config
-        flag0 = roi0 = desired = controller = None
+        flag0 = roi0 = desired = controller = feature_filter = None
         inset = 0
         qdot_prev = np.zeros(len(self.arm.limits.qdot_max))  # pipelined: the command that acts this step
         t_step = time.perf_counter()
@@ -298,6 +331,8 @@ class ServoLoop:
                 desired = r.transfer(flag0, self.flag_desired, roi0)
                 law = IBVSController if cfg.controller == "ibvs" else PBVSController
                 controller = law(r.K, self._pinhole(desired), self.desired_depth, self.ibvs_config, self.dofs)
+                feature_filter = (FeatureFilter(r.K, self.filter_alpha, self._pinhole(desired), self.desired_depth)
+                                  if self.filter_alpha > 0 and self.tracker is not None else None)
             gt_features = r.transfer(flag0, gt.corners, roi0)
             fault, track, init_track = None, None, None
             t0 = time.perf_counter()
@@ -340,9 +375,15 @@ class ServoLoop:
                 timings["track"] = 1e3 * (t_track - t0) + (track.ms if track is not None else 0.0)
             t0 = time.perf_counter()
             ctrl = None
+            tracked = features
+            control_px = self._pinhole(features) if fault is None else features
+            if feature_filter is not None:  # the camera's pose from the joints' forward kinematics, as ArmDriver reads it
+                control_px = feature_filter.update(control_px, cap.gt.camera, usable=fault is None and mode != "lost")
+                if fault is None:
+                    features = self._distort(control_px)
             if fault is None:
                 try:  # PBVS cannot take a pose from a degenerate quad: like a tracker fault, stop the arm and record it
-                    ctrl = controller.compute(self._pinhole(features), cap.depths, mode)
+                    ctrl = controller.compute(control_px, cap.depths, mode)
                 except HvsError as exc:
                     fault, mode = f"{type(exc).__name__}: {exc}", "fault"
             if ctrl is not None:
@@ -360,11 +401,12 @@ class ServoLoop:
                 step=step, time=cap.time, frame=frame if cfg.keep_frames else None, track=track, mode=mode,
                 features=features, gt_features=gt_features, desired=desired,
                 error_px=float(np.linalg.norm(gt_features - desired, axis=1).mean()),
-                tracker_error_px=float(np.linalg.norm(features - gt_features, axis=1).mean()) if fault is None else float("nan"),
+                tracker_error_px=float(np.linalg.norm(tracked - gt_features, axis=1).mean()) if fault is None else float("nan"),
                 occlusion=gt.occlusion, twist=twist, qdot=cmd.qdot, q=gt.joint_positions, camera=gt.camera, gain=gain,
                 saturated=sat or cmd.velocity_saturated, limit_blocked=cmd.limit_blocked, fault=fault, timings=timings,
                 pose_error=cap.pose_error, singular_values=sv, dofs=self.dofs, damping=self.ibvs_config.damping,
-                template=(self.template_from, int(inset)),
+                feature_filter=self.filter_alpha if self.tracker is not None else 0.0,
+                template=(self.template_from, int(inset), self.goal_frames),
                 target_in_view=corners_in_view(gt.corners, self.scenario.camera),
                 controlled_pose_error=self.controlled_pose_error(cap.pose_error), people=cap.people, arm=cap.arm,
                 wall_ms=1e3 * (now - t_step) if pool is not None else None)
@@ -478,6 +520,8 @@ class RunStats:
             "pipeline": config.pipeline,
             "template_from": self.first.template[0],
             "roi_inset_px": self.first.template[1],
+            "goal_frames": self.first.template[2],
+            "feature_filter": self.first.feature_filter,
             "controlled_dofs": list(final.dofs),
             "pose_bound": {"mm": config.converge_mm, "deg": config.converge_deg,
                            "applies_to": list(final.dofs),

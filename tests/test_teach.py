@@ -10,7 +10,7 @@ from sklearn.datasets import load_sample_image
 
 from hvs_sim.cli import main
 from hvs_sim.errors import ConfigError, InputError, StateError
-from hvs_sim.loop import GOAL_ROI_INSET_PX, LoopConfig, ServoLoop, summarize_run
+from hvs_sim.loop import GOAL_FRAMES, GOAL_ROI_INSET_PX, LoopConfig, ServoLoop, summarize_run
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 from hvs_sim.scene.world import Scene
@@ -152,9 +152,9 @@ def test_the_template_view_and_inset_default_to_the_goal_for_six_dof_tracking_on
     loop = ServoLoop(sc, "ecc", cfg, warp="homography")
     rec = next(iter(loop))
     _, corners = loop.goal_image()
-    assert roi_from_corners(corners)[2:] == (54, 36) and rec.template == ("goal", 6) and GOAL_ROI_INSET_PX == 8
+    assert roi_from_corners(corners)[2:] == (54, 36) and rec.template == ("goal", 6, GOAL_FRAMES) and GOAL_ROI_INSET_PX == 8
     big = ServoLoop(make_scenario("clear", mount="arm", start_offset=TILTED), "ecc", cfg, warp="homography")
-    assert next(iter(big)).template == ("goal", GOAL_ROI_INSET_PX)
+    assert next(iter(big)).template == ("goal", GOAL_ROI_INSET_PX, GOAL_FRAMES)
     # the oracle's features take no inset, even from the goal image
     oracle = ServoLoop(sc, "ground_truth", LoopConfig(steps=1, keep_frames=False, template_from="goal"))
-    assert next(iter(oracle)).template == ("goal", 0)
+    assert next(iter(oracle)).template == ("goal", 0, GOAL_FRAMES)

@@ -52,6 +52,8 @@ class ServoBenchConfig:
     damping: float | None = None  # IBVSConfig.damping of every episode (None: the loop's default)
     template_from: str | None = None  # LoopConfig.template_from of every episode (None: the loop's default)
     roi_inset_px: int | None = None  # LoopConfig.roi_inset_px of every episode (None: the loop's default)
+    goal_frames: int | None = None  # LoopConfig.goal_frames of the episodes with a goal template (None: the loop's default)
+    feature_filter: float | None = None  # LoopConfig.feature_filter of every episode (None: the loop's default)
 
     def __post_init__(self):
         from hvs_sim.camera_model import sensor_preset
@@ -89,7 +91,8 @@ class ServoBenchConfig:
         sensor_preset(self.camera)
         if self.damping is not None:
             check_number("damping", self.damping, 0, 1)
-        LoopConfig(template_from=self.template_from, roi_inset_px=self.roi_inset_px)  # checks both
+        LoopConfig(template_from=self.template_from, roi_inset_px=self.roi_inset_px, goal_frames=self.goal_frames,
+                   feature_filter=self.feature_filter)  # checks them
 
     @property
     def episode_seeds(self) -> list[int]:
@@ -154,13 +157,16 @@ def _episode(args):
     from hvs_sim.runner import run_episode
     from hvs_sim.scene.scenarios import CameraConfig
 
-    scen_name, method, seed, steps, extra, keep, camera, people, damping, template_from, inset = args
+    scen_name, method, seed, steps, extra, keep, camera, people, damping, template_from, inset, goal_frames, alpha = args
     torch.set_num_threads(1 if os.environ.get("HVS_WORKERS", "1") != "1" else 2)
     tracker, warp, controller = parse_method(method)
     scen = episode_scenario(scen_name, seed, camera=CameraConfig(sensor=camera), people=people)
     n = steps if steps else scen.n_frames + extra
+    goal_template = tracker != "ground_truth" and (template_from or ("goal" if warp == "homography" else "start")) == "goal"
     loop_config = LoopConfig(steps=n, keep_frames=False, controller=controller, ibvs=IBVSConfig(damping=damping),
-                             template_from=template_from, roi_inset_px=inset)
+                             template_from=template_from, roi_inset_px=inset,
+                             goal_frames=goal_frames if goal_template else None,  # the episodes with a goal image
+                             feature_filter=alpha)
     summary, records = run_episode(scen, tracker, loop_config, progress=False, keep_records=keep,
                                    tracker_settings={"warp": warp} if warp else None)
     summary["method"] = method
@@ -180,7 +186,7 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
     out.mkdir(parents=True, exist_ok=True)
     seeds = config.episode_seeds
     jobs = [(s, t, seed, config.steps, config.extra_steps, seed == seeds[0], config.camera, config.people, config.damping,
-             config.template_from, config.roi_inset_px)
+             config.template_from, config.roi_inset_px, config.goal_frames, config.feature_filter)
             for s in config.scenarios for t in config.trackers for seed in seeds]
     os.environ["HVS_WORKERS"] = str(config.workers)
     episodes, traces = {}, {}

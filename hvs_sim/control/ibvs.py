@@ -26,9 +26,10 @@ CONTROLLERS = ("ibvs", "pbvs")
 # where the tracked features' template comes from (LoopConfig.template_from): the run's first frame ("start"),
 # or an image taken with the camera at the reference pose before the run ("goal": teach-by-showing)
 TEMPLATE_VIEWS = ("start", "goal")
-# measured on the 6-DOF servo benchmark (seeds 200-205, tuned on another start): tracked corners' 0.1-0.3 px
-# noise through L⁺ (cond ~1100) kept the undamped loop 10-17 px off; damped, 0.22-0.28 px
-TRACKED_6DOF_DAMPING = 0.005
+# tracked corners' noise through L⁺ (cond ~540 at the goal) makes velocities the arm cannot follow: undamped the
+# 6-DOF servo benchmark ended 10-17 px off. 0.005 held it but closed L's weak direction in ~4 s; with the averaged
+# goal image and the feature filter (loop.py) 0.002 closes it ~2.5× faster (tuned on episodes 300-305; README)
+TRACKED_6DOF_DAMPING = 0.002
 
 
 INTERACTION_AT = ("current", "desired", "mean")

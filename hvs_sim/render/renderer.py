@@ -15,17 +15,19 @@ import numpy as np
 from dm_control.mujoco import engine
 from dm_control.mujoco.wrapper import core as mj_core
 
-from hvs_sim.camera_model import SensorState, decode, distort_points, distortion_maps, light_scale
+from hvs_sim.camera_model import STILL_STREAM, SensorState, decode, distort_points, distortion_maps, light_scale
 from hvs_sim.gl import check_not_forked_after_rendering, note_rendering
 from hvs_sim.render.camera import CameraPose, intrinsics, project, transfer_points
 from hvs_sim.scene.parts import OCCLUDER_GROUP
 from hvs_sim.scene.world import Scene
+from hvs_sim.validate import check_number
 
 PERSON_PROBE_HEIGHTS = (0.5, 1.2, 1.7)  # m above the feet: points whose image motion sets the blur sampling
 CUBE_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
 MIN_DEPTH_M = 1e-3  # a person's geom closer to the camera plane than this may cover anything
 OUTLINE_SHIFT = 4  # the target's outline is rasterised with 2^-4 px vertex precision
 OUTLINE_SUBPIXEL = 1 << OUTLINE_SHIFT
+MAX_STILL_FRAMES = 256  # still_average: more frames than a user would grab at the goal
 BLUR_PROBE_MARGIN = 0.25  # ... counted while within this fraction of the image size outside the frame
 
 
@@ -110,6 +112,14 @@ class Renderer:
             return self._last[1].copy()  # auto-exposure and noise advance once per frame
         if self._last is not None and self._last[0][0] != key[0]:
             self._state = SensorState(self.sensor, scene.scenario.seed, (self.height, self.width))  # a new episode
+        frame = self._state.capture(self._exposure(), scene.frame_index, scene.time, 1.0 / scene.scenario.fps)
+        self._last = (key, frame)
+        return frame.copy()
+
+    def _exposure(self) -> np.ndarray:
+        """The light the sensor collects over the exposure (H×W×3 linear float32): sub-frame renders averaged
+        (motion blur, the lights' flicker and dimming), then the lens distortion."""
+        scene = self.scene
         offsets = self.sensor.exposure_offsets(self.sensor.samples_for_motion(self._exposure_motion_px()))
         self.blur_samples = len(offsets)
         linear = np.zeros((self.height, self.width, 3), np.float32)
@@ -123,9 +133,22 @@ class Renderer:
         linear /= np.float32(len(offsets))
         if self._maps is not None:
             linear = cv2.remap(linear, *self._maps, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        frame = self._state.capture(linear, scene.frame_index, scene.time, 1.0 / scene.scenario.fps)
-        self._last = (key, frame)
-        return frame.copy()
+        return linear
+
+    def still_average(self, n: int) -> np.ndarray:
+        """The mean of `n` frames of the scene held still (uint8 RGB), as a user teaching a goal image grabs a
+        few frames at the goal and averages them: the camera's noise and JPEG artefacts, which a single frame
+        freezes into a template, fall by ~√n. Each frame has its own noise (camera_model.STILL_STREAM, apart
+        from the episode's frames); n = 1 is `rgb()`. The `ideal` camera's frames are all the same render."""
+        check_number("still frames", n, 1, MAX_STILL_FRAMES, integer=True)
+        if n == 1 or self._ideal:
+            return self.rgb()
+        scene = self.scene
+        linear = self._exposure()  # nothing moves between the frames: one exposure, n captures
+        acc = np.zeros((self.height, self.width, 3), np.float32)
+        for k in range(n):
+            acc += self._state.capture(linear, k, scene.time, 1.0 / scene.scenario.fps, stream=STILL_STREAM)
+        return np.rint(acc / np.float32(n)).astype(np.uint8)
 
     def _set_lights(self, t: float | None) -> None:
         """Scale the scene's lights for the camera model's flicker / dimming at time t; None puts them back."""
