@@ -444,7 +444,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"one of: {', '.join(loop_trackers)} (default {DEFAULT_TRACKER}; the hybrid_* names are "
                         "its ablations, see hvs_sim/tracking/registry.py)")
     p.add_argument("--steps", type=int, default=240, help="control steps at 30 Hz")
-    from hvs_sim.control.ibvs import CONTROLLERS, TEMPLATE_VIEWS
+    from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
+    from hvs_sim.control.ibvs import CONTROLLERS, GOAL_FRAMES, TEMPLATE_VIEWS, TRACKED_6DOF_DAMPING
     from hvs_sim.tracking.warp import WARPS
 
     p.add_argument("--warp", default=None, choices=WARPS,
@@ -462,11 +463,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "with a start template)")
     p.add_argument("--feature-filter", type=float, default=None, metavar="ALPHA",
                    help="α of the filter that blends the tracked corners with where the camera's own motion (the "
-                        "joints' forward kinematics) carries the last estimate, in [0, 1]; 0 = off (default 0.2 for "
-                        "tracked corners on six DOF, else off)")
+                        f"joints' forward kinematics) carries the last estimate, in [0, 1]; 0 = off (default "
+                        f"{FEATURE_FILTER_ALPHA} for tracked corners on six DOF, else off)")
     p.add_argument("--goal-frames", type=int, default=None, metavar="N",
                    help="frames of the still goal view averaged into the goal image, as a user teaching the goal "
-                        "averages a few grabs: the camera's noise and JPEG artefacts fall ~√N (default 64 with a goal "
+                        f"averages a few grabs: the camera's noise falls ~√N (default {GOAL_FRAMES} with a goal "
                         "template; refused with a start template)")
     p.add_argument("--pipeline", action="store_true",
                    help="track each frame in a second thread while the physics steps and the next frame renders: "
@@ -515,7 +516,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"trackers to compare: {', '.join(TRACKER_NAMES)}; servo also ground_truth (the hybrid_* are "
                         "ablations, see hvs_sim/tracking/registry.py; default: the benchmark's set)")
     p.add_argument("--damping", type=float, default=None,
-                   help="servo only: damped pseudo-inverse, μ = damping × σ_max(L) (IBVSConfig.damping; default: 0.002 for "
+                   help=f"servo only: damped pseudo-inverse, μ = damping × σ_max(L) (IBVSConfig.damping; default: {TRACKED_6DOF_DAMPING} for "
                         "tracked features on six DOF, else 0)")
     p.add_argument("--template-from", default=None, choices=TEMPLATE_VIEWS,
                    help="servo only: where the tracker's template comes from (as `run --template-from`; default: goal "
@@ -526,10 +527,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="servo only: cut the template this many pixels inside the target's outline (as `run "
                         "--roi-inset`; default: 8 with a goal template, 0 with a start one)")
     p.add_argument("--goal-frames", type=int, default=None, metavar="N",
-                   help="servo only: frames averaged into the goal image (as `run --goal-frames`; default 64 with a goal "
+                   help=f"servo only: frames averaged into the goal image (as `run --goal-frames`; default {GOAL_FRAMES} with a goal "
                         "template)")
     p.add_argument("--feature-filter", type=float, default=None, metavar="ALPHA",
-                   help="servo only: α of the feature filter (as `run --feature-filter`; 0 = off; default 0.2 for tracked "
+                   help=f"servo only: α of the feature filter (as `run --feature-filter`; 0 = off; default {FEATURE_FILTER_ALPHA} for tracked "
                         "corners on six DOF)")
     p.add_argument("--imagery", default="sim", choices=("sim", "natural"),
                    help="track only: sim = rendered scenes (default); natural = photos and procedural pictures moved "

@@ -17,10 +17,11 @@ import torch
 
 from hvs_sim.camera_model import distort_points, undistort_points
 from hvs_sim.control.arm import ArmDriver
-from hvs_sim.control.feature_filter import FeatureFilter
+from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA, FeatureFilter
 from hvs_sim.control.ibvs import (
     CONTROLLERS,
     DOF_NAMES,
+    GOAL_FRAMES,
     TEMPLATE_VIEWS,
     TRACKED_6DOF_DAMPING,
     IBVSConfig,
@@ -48,12 +49,6 @@ IN_VIEW_MARGIN_PX = 2.0  # the target's corners must be this far inside the imag
 # bound is stated beside the 0.5 px image threshold rather than derived from it
 CONVERGE_MM, CONVERGE_DEG = 10.0, 1.0
 GOAL_ROI_INSET_PX = 8  # LoopConfig.roi_inset_px's default with a goal template (6-DOF servo benchmark, README)
-# LoopConfig.goal_frames' default: frames averaged into the goal image (2 s of a 30 Hz camera held at the goal). One
-# noisy JPEG frame froze its noise into the template and biased the tracked corners at the goal by ~0.1 px along L's
-# weak direction, ~40 mm and 3°; 16 frames left ~12 mm, 64 ~8 mm, 256 no better (episodes 300-305; README)
-GOAL_FRAMES = 64
-# LoopConfig.feature_filter's default for tracked corners on six DOF (control/feature_filter.py, README)
-FEATURE_FILTER_ALPHA = 0.1
 
 
 @dataclass(frozen=True)
@@ -142,6 +137,7 @@ class StepRecord:
     target_in_view: bool = True  # all four true target corners inside the image
     damping: float = 0.0  # the IBVS damping the loop used (IBVSConfig.damping, resolved)
     feature_filter: float = 0.0  # the feature filter's α the loop used (LoopConfig.feature_filter, resolved; 0 = off)
+    filter_restarted: bool = False  # the feature filter restarted at this measurement (FeatureFilter.gate_px)
     # where the template came from, its inset and the frames averaged into a goal image (LoopConfig, resolved)
     template: tuple[str, int, int | None] = ("start", 0, None)
     # wall ms of the step when its stages overlap (LoopConfig.pipeline): from the end of the step before (so the
@@ -187,6 +183,11 @@ def check_start_pose(scenario: Scenario) -> None:
     check_start_in_view(scene, Renderer(scene))
 
 
+def template_view(template_from: str | None, tracked_6dof: bool) -> str:
+    """LoopConfig.template_from resolved: as given, else "goal" for tracked corners on six DOF, else "start"."""
+    return template_from or ("goal" if tracked_6dof else "start")
+
+
 def loop_tracker(tracker: str, settings: dict) -> Tracker | None:
     """The closed loop's tracker by name with its settings (None: the ground_truth oracle). Built
     before the scene, so a bad name or setting costs no rendering."""
@@ -223,14 +224,22 @@ class ServoLoop:
         if damping is None:  # exact features need none; tracked ones on six DOF do (IBVSConfig.damping)
             damping = TRACKED_6DOF_DAMPING if tracked_6dof and config.controller == "ibvs" else 0.0  # PBVS: no L⁺
         self.ibvs_config = dataclasses.replace(config.ibvs, damping=damping)
+        if self.tracker is None:  # exact features: nothing to filter, no template
+            for name, value in (("feature_filter", config.feature_filter), ("goal_frames", config.goal_frames)):
+                if value:
+                    raise ConfigError(f"{name} ({value}) applies to a tracker's corners; ground_truth features have "
+                                      f"no noise to filter and no template: leave {name} out")
         alpha = config.feature_filter
         self.filter_alpha = (FEATURE_FILTER_ALPHA if tracked_6dof else 0.0) if alpha is None else float(alpha)
-        self.template_from = config.template_from or ("goal" if tracked_6dof else "start")
+        self.template_from = template_view(config.template_from, tracked_6dof)
         if self.template_from == "start" and config.goal_frames is not None:
             raise ConfigError(f"goal_frames ({config.goal_frames}) averages frames into a goal image, but this run's "
                               "template comes from its first frame (template_from='start'): leave goal_frames out, or "
                               "use template_from='goal'")
+        # the oracle takes only the target's corners from a goal image: one frame
         self.goal_frames = None if self.template_from == "start" else (config.goal_frames or GOAL_FRAMES)
+        if self.tracker is None and self.goal_frames is not None:
+            self.goal_frames = 1
 
     def controlled_pose_error(self, pose_error: np.ndarray) -> tuple[float, float]:
         """(mm, deg) of the pose error in the DOFs this loop controls."""
@@ -332,7 +341,7 @@ class ServoLoop:
                 law = IBVSController if cfg.controller == "ibvs" else PBVSController
                 controller = law(r.K, self._pinhole(desired), self.desired_depth, self.ibvs_config, self.dofs)
                 feature_filter = (FeatureFilter(r.K, self.filter_alpha, self._pinhole(desired), self.desired_depth)
-                                  if self.filter_alpha > 0 and self.tracker is not None else None)
+                                  if self.filter_alpha > 0 else None)
             gt_features = r.transfer(flag0, gt.corners, roi0)
             fault, track, init_track = None, None, None
             t0 = time.perf_counter()
@@ -386,6 +395,8 @@ class ServoLoop:
                     ctrl = controller.compute(control_px, cap.depths, mode)
                 except HvsError as exc:
                     fault, mode = f"{type(exc).__name__}: {exc}", "fault"
+                    if feature_filter is not None:  # a faulty frame clears the filter, as a tracker fault does
+                        feature_filter.reset()
             if ctrl is not None:
                 twist, gain, sat, sv = ctrl.twist, ctrl.gain, ctrl.saturated, ctrl.singular_values
             else:
@@ -405,7 +416,8 @@ class ServoLoop:
                 occlusion=gt.occlusion, twist=twist, qdot=cmd.qdot, q=gt.joint_positions, camera=gt.camera, gain=gain,
                 saturated=sat or cmd.velocity_saturated, limit_blocked=cmd.limit_blocked, fault=fault, timings=timings,
                 pose_error=cap.pose_error, singular_values=sv, dofs=self.dofs, damping=self.ibvs_config.damping,
-                feature_filter=self.filter_alpha if self.tracker is not None else 0.0,
+                feature_filter=self.filter_alpha,
+                filter_restarted=feature_filter is not None and feature_filter.restarted,
                 template=(self.template_from, int(inset), self.goal_frames),
                 target_in_view=corners_in_view(gt.corners, self.scenario.camera),
                 controlled_pose_error=self.controlled_pose_error(cap.pose_error), people=cap.people, arm=cap.arm,
@@ -449,7 +461,7 @@ class RunStats:
         self.step_ms = np.zeros(n)
         self.timings: dict[str, np.ndarray] = {}
         self.faults: set[str] = set()
-        self.saturated = self.limit_blocked = self.out_of_view = 0
+        self.saturated = self.limit_blocked = self.out_of_view = self.filter_restarts = 0
         self.path_m = 0.0
         self.max_condition: float | None = None
         self.min_rank: int | None = None
@@ -471,6 +483,7 @@ class RunStats:
         self.saturated += bool(r.saturated)
         self.limit_blocked += bool(r.limit_blocked)
         self.out_of_view += not r.target_in_view
+        self.filter_restarts += bool(r.filter_restarted)
         if self.last is not None:
             self.path_m += float(np.linalg.norm(r.camera.t - self.last.camera.t))
         if r.condition is not None:
@@ -522,6 +535,7 @@ class RunStats:
             "roi_inset_px": self.first.template[1],
             "goal_frames": self.first.template[2],
             "feature_filter": self.first.feature_filter,
+            "feature_filter_restarts": self.filter_restarts,
             "controlled_dofs": list(final.dofs),
             "pose_bound": {"mm": config.converge_mm, "deg": config.converge_deg,
                            "applies_to": list(final.dofs),

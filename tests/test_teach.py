@@ -157,4 +157,4 @@ def test_the_template_view_and_inset_default_to_the_goal_for_six_dof_tracking_on
     assert next(iter(big)).template == ("goal", GOAL_ROI_INSET_PX, GOAL_FRAMES)
     # the oracle's features take no inset, even from the goal image
     oracle = ServoLoop(sc, "ground_truth", LoopConfig(steps=1, keep_frames=False, template_from="goal"))
-    assert next(iter(oracle)).template == ("goal", 0, GOAL_FRAMES)
+    assert next(iter(oracle)).template == ("goal", 0, 1)  # the oracle takes only corners from the goal image

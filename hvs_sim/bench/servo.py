@@ -53,7 +53,7 @@ class ServoBenchConfig:
     template_from: str | None = None  # LoopConfig.template_from of every episode (None: the loop's default)
     roi_inset_px: int | None = None  # LoopConfig.roi_inset_px of every episode (None: the loop's default)
     goal_frames: int | None = None  # LoopConfig.goal_frames of the episodes with a goal template (None: the loop's default)
-    feature_filter: float | None = None  # LoopConfig.feature_filter of every episode (None: the loop's default)
+    feature_filter: float | None = None  # LoopConfig.feature_filter of the episodes with tracked corners (None: default)
 
     def __post_init__(self):
         from hvs_sim.camera_model import sensor_preset
@@ -93,6 +93,9 @@ class ServoBenchConfig:
             check_number("damping", self.damping, 0, 1)
         LoopConfig(template_from=self.template_from, roi_inset_px=self.roi_inset_px, goal_frames=self.goal_frames,
                    feature_filter=self.feature_filter)  # checks them
+        if self.goal_frames is not None and self.template_from == "start":
+            raise ConfigError(f"goal_frames ({self.goal_frames}) averages frames into a goal image; with template_from "
+                              "'start' no episode has one: leave one of them out")
 
     @property
     def episode_seeds(self) -> list[int]:
@@ -154,6 +157,7 @@ def _episode(args):
     import torch
 
     from hvs_sim.control.ibvs import IBVSConfig
+    from hvs_sim.loop import template_view
     from hvs_sim.runner import run_episode
     from hvs_sim.scene.scenarios import CameraConfig
 
@@ -162,11 +166,12 @@ def _episode(args):
     tracker, warp, controller = parse_method(method)
     scen = episode_scenario(scen_name, seed, camera=CameraConfig(sensor=camera), people=people)
     n = steps if steps else scen.n_frames + extra
-    goal_template = tracker != "ground_truth" and (template_from or ("goal" if warp == "homography" else "start")) == "goal"
+    tracked = tracker != "ground_truth"
+    goal_template = tracked and template_view(template_from, tracked and warp == "homography") == "goal"
     loop_config = LoopConfig(steps=n, keep_frames=False, controller=controller, ibvs=IBVSConfig(damping=damping),
                              template_from=template_from, roi_inset_px=inset,
                              goal_frames=goal_frames if goal_template else None,  # the episodes with a goal image
-                             feature_filter=alpha)
+                             feature_filter=alpha if tracked else None)  # ... and with tracked corners
     summary, records = run_episode(scen, tracker, loop_config, progress=False, keep_records=keep,
                                    tracker_settings={"warp": warp} if warp else None)
     summary["method"] = method

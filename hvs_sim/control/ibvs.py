@@ -26,12 +26,21 @@ CONTROLLERS = ("ibvs", "pbvs")
 # where the tracked features' template comes from (LoopConfig.template_from): the run's first frame ("start"),
 # or an image taken with the camera at the reference pose before the run ("goal": teach-by-showing)
 TEMPLATE_VIEWS = ("start", "goal")
+# LoopConfig.goal_frames' default: frames averaged into the goal image (2 s of a 30 Hz camera held at the goal). One
+# noisy JPEG frame froze its noise into the template and biased the tracked corners at the goal along L's weak
+# direction: the servo benchmark's tuning episodes (300-305) ended ~40 mm / 3° from the goal; with 16 frames ~12 mm,
+# 64 ~8 mm, 256 no better (README)
+GOAL_FRAMES = 64
 # tracked corners' noise through L⁺ (cond ~540 at the goal) makes velocities the arm cannot follow: undamped the
 # 6-DOF servo benchmark ended 10-17 px off. 0.005 held it but closed L's weak direction in ~4 s; with the averaged
 # goal image and the feature filter (loop.py) 0.002 closes it ~2.5× faster (tuned on episodes 300-305; README)
 TRACKED_6DOF_DAMPING = 0.002
 
 
+# the DOFs commanded while the tracker predicts (mode "predict"): its prediction moves the whole warp by a
+# translation, which says nothing of pitch and yaw; on six DOF, commanding them from predicted corners drove the
+# arm up to 0.5 m along L's weak direction through a long occlusion (servo benchmark, pause)
+PREDICT_DOFS = SIMILARITY_DOFS
 INTERACTION_AT = ("current", "desired", "mean")
 DEPTH_SOURCES = ("scale", "true")
 
@@ -147,6 +156,7 @@ class IBVSController:
         self.s_star = self.normalise(self.desired_px)
         self.dofs = tuple(config.dofs or dofs)
         self.cols = [DOF_NAMES.index(d) for d in self.dofs]
+        self.predict_cols = [c for c in self.cols if DOF_NAMES[c] in PREDICT_DOFS]
 
     def normalise(self, px: np.ndarray) -> np.ndarray:
         K = self.K
@@ -189,10 +199,11 @@ class IBVSController:
         if mode == "predict":
             lam *= self.config.predict_gain
         twist = np.zeros(6)
-        Lc = L[:, self.cols]
+        cols = self.predict_cols if mode == "predict" else self.cols
+        Lc = L[:, cols]
         sv = np.linalg.svd(Lc, compute_uv=False)
         if mode != "lost":
-            twist[self.cols] = -lam * (damped_pinv(Lc, (self.config.damping or 0.0) * sv.max()) @ e)
+            twist[cols] = -lam * (damped_pinv(Lc, (self.config.damping or 0.0) * sv.max()) @ e)
         twist, saturated = bound_twist(twist, self.config.max_linear, self.config.max_angular)
         return ControlOutput(twist, e, err_px, lam, saturated, sv)
 

@@ -22,6 +22,25 @@ from hvs_sim.control.ibvs import SIMILARITY_DOFS, ControlOutput, IBVSConfig, IBV
 from hvs_sim.errors import InputError
 
 
+def target_model(desired_px: np.ndarray, desired_depth: float, K: np.ndarray) -> np.ndarray:
+    """The planar target (N, 3) as the controller knows it: the desired corners s* back-projected at depth Z*."""
+    s = (np.asarray(desired_px, float).reshape(-1, 2) - K[:2, 2]) / np.diag(K)[:2]
+    return np.column_stack([s * desired_depth, np.full(len(s), desired_depth)])
+
+
+def target_pose(model: np.ndarray, K: np.ndarray, corners_px: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """(R, t) of the planar `model` in the camera frame from its corners (pixels): cv2.solvePnP with IPPE, exact for
+    four coplanar points; None when OpenCV finds no finite pose (a degenerate quad)."""
+    try:
+        ok, rvec, tvec = cv2.solvePnP(model, np.asarray(corners_px, np.float64).reshape(-1, 1, 2), K, None,
+                                      flags=cv2.SOLVEPNP_IPPE)
+    except cv2.error:
+        return None
+    if not ok or not np.all(np.isfinite(rvec)) or not np.all(np.isfinite(tvec)):
+        return None
+    return cv2.Rodrigues(rvec)[0], tvec.reshape(3)
+
+
 class PBVSController:
     """PBVS to the pose that shows the desired corners s* (pixels) at depth Z*, given intrinsics K."""
 
@@ -35,18 +54,14 @@ class PBVSController:
         s_star = self.image.s_star
         if len(s_star) < 4:
             raise InputError(f"PBVS needs at least 4 coplanar corners for the target's pose, got {len(s_star)}")
-        self.model = np.column_stack([s_star * desired_depth, np.full(len(s_star), desired_depth)])
+        self.model = target_model(self.desired_px, desired_depth, self.K)
 
     def pose(self, features_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(R, t) of the target model in the current camera frame from the corners (pixels)."""
-        try:
-            ok, rvec, tvec = cv2.solvePnP(self.model, np.asarray(features_px, np.float64).reshape(-1, 1, 2), self.K, None,
-                                          flags=cv2.SOLVEPNP_IPPE)
-        except cv2.error:
-            ok, rvec, tvec = False, None, None
-        if not ok or not np.all(np.isfinite(rvec)) or not np.all(np.isfinite(tvec)):
+        pose = target_pose(self.model, self.K, features_px)
+        if pose is None:
             raise InputError("PBVS: the target's pose could not be estimated from these corners")
-        return cv2.Rodrigues(rvec)[0], tvec.reshape(3)
+        return pose
 
     def compute(self, features_px: np.ndarray, depths: np.ndarray | None = None, mode: str = "align") -> ControlOutput:
         """Twist for the current corners (pixels); `depths` is not used (the pose gives them)."""
@@ -56,6 +71,7 @@ class PBVSController:
             R, t = self.pose(features_px)
             theta_u = cv2.Rodrigues(R)[0].reshape(3)
             full = img.gain * np.concatenate([t, theta_u])
-            twist[self.cols] = full[self.cols]
+            cols = self.image.predict_cols if mode == "predict" else self.cols  # ibvs.PREDICT_DOFS
+            twist[cols] = full[cols]
         twist, saturated = bound_twist(twist, self.config.max_linear, self.config.max_angular)
         return ControlOutput(twist, img.error, img.error_px, img.gain, saturated, img.singular_values)

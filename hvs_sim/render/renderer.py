@@ -137,11 +137,12 @@ class Renderer:
 
     def still_average(self, n: int) -> np.ndarray:
         """The mean of `n` frames of the scene held still (uint8 RGB), as a user teaching a goal image grabs a
-        few frames at the goal and averages them: the camera's noise and JPEG artefacts, which a single frame
-        freezes into a template, fall by ~√n. Each frame has its own noise (camera_model.STILL_STREAM, apart
-        from the episode's frames); n = 1 is `rgb()`. The `ideal` camera's frames are all the same render."""
+        few frames at the goal and averages them: the camera's noise, which a single frame freezes into a
+        template, falls by ~√n (with the JPEG artefacts it causes; those of the clean picture stay). Each frame
+        has its own noise (camera_model.STILL_STREAM, apart from the episode's frames). The `ideal` camera's
+        frames are all the same render."""
         check_number("still frames", n, 1, MAX_STILL_FRAMES, integer=True)
-        if n == 1 or self._ideal:
+        if self._ideal:
             return self.rgb()
         scene = self.scene
         linear = self._exposure()  # nothing moves between the frames: one exposure, n captures

@@ -128,8 +128,9 @@ def servo_figure(episodes: dict, out: Path, title: str) -> Path:
 
 
 def _overlay(r) -> np.ndarray:
-    """One closed-loop frame, BGR, half size: tracked outline (thick green) under the true (white)
-    and desired (red) outlines, so all three stay visible where they coincide."""
+    """One closed-loop frame, BGR, half size: the outline the controller used (thick green: tracked, through the
+    feature filter when it is on) under the true (white) and desired (red) outlines, so all three stay visible
+    where they coincide."""
     import cv2
 
     img = cv2.cvtColor(r.frame, cv2.COLOR_RGB2BGR)

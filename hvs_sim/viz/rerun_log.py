@@ -3,7 +3,8 @@
 Entity paths:
   world/camera                      camera pose (Transform3D, OpenCV axes) + Pinhole
   world/camera/image                rendered frame
-  world/camera/image/tracked        tracked corners (green), .../ground_truth (white), .../desired (red)
+  world/camera/image/tracked        the corners the controller used (green: the tracker's, through the feature
+                                    filter when it is on), .../ground_truth (white), .../desired (red)
   world/trajectory                  the camera centre's path
   world/target                      target outline in 3-D
   world/occluder                    the people in front of it (boxes around their bodies)
