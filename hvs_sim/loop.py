@@ -236,10 +236,12 @@ class ServoLoop:
             raise ConfigError(f"goal_frames ({config.goal_frames}) averages frames into a goal image, but this run's "
                               "template comes from its first frame (template_from='start'): leave goal_frames out, or "
                               "use template_from='goal'")
-        # the oracle takes only the target's corners from a goal image: one frame
-        self.goal_frames = None if self.template_from == "start" else (config.goal_frames or GOAL_FRAMES)
-        if self.tracker is None and self.goal_frames is not None:
+        if self.template_from == "start":
+            self.goal_frames = None
+        elif self.tracker is None:  # the oracle takes only the target's corners from a goal image: one frame
             self.goal_frames = 1
+        else:
+            self.goal_frames = config.goal_frames or GOAL_FRAMES
 
     def controlled_pose_error(self, pose_error: np.ndarray) -> tuple[float, float]:
         """(mm, deg) of the pose error in the DOFs this loop controls."""

@@ -40,6 +40,7 @@ class FeatureFilter:
         check_number("feature filter alpha", alpha, 0, 1, lo_open=True)
         check_number("feature filter gate (px)", gate_px, 0, lo_open=True)
         self.K = np.asarray(K, float)
+        self.K_inv = np.linalg.inv(self.K)
         self.alpha, self.gate_px = float(alpha), float(gate_px)
         self.model = target_model(desired_px, desired_depth, self.K)
         self.state: np.ndarray | None = None  # the filtered corners (pinhole px) of the last frame
@@ -62,7 +63,7 @@ class FeatureFilter:
         d = float(n @ (R_t @ self.model[0] + t_t))
         R = pose.R.T @ self.pose.R  # last camera frame → this one
         t = pose.R.T @ (self.pose.t - pose.t)
-        H = self.K @ (R + np.outer(t, n) / d) @ np.linalg.inv(self.K)
+        H = self.K @ (R + np.outer(t, n) / d) @ self.K_inv
         uv = np.c_[self.state, np.ones(len(self.state))] @ H.T
         return uv[:, :2] / uv[:, 2:3] if d > 0 and np.all(uv[:, 2] > 0) else None
 
