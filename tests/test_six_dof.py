@@ -59,9 +59,10 @@ def homography_lk():
 
 @pytest.mark.parametrize("name", ["astronaut", "chelsea"])
 def test_homography_tracker_recovers_perspective_warps_of_photos(homography_lk, name):
-    # feature LK (half resolution), then ECC on the full-resolution grey template
+    # feature LK (half resolution), then the intensity refinement on the full-resolution grey template
+    # (intensity_ic.py): the issue's target, every corner within 0.1 px (with ECC instead: 0.3 / 0.2 px held)
     err = corner_errors(homography_lk, name)
-    assert err.max() <= 0.3 and np.median(err) <= 0.2, err
+    assert err.max() < 0.1, err
 
 
 def test_similarity_tracker_cannot_follow_a_perspective_warp():
@@ -257,6 +258,23 @@ def test_ecc_from_the_truth_stays_there(motion):
     assert np.abs(own - ecc_template(grey, ROI, 5))[:2].max() > 1.0
 
 
+def test_ecc_homography_handed_over_scaled_ends_where_the_normalised_one_does():
+    """OpenCV's Jacobian of the homography takes h33 = 1: find_transform normalises, so the scale of the matrix
+    handed over does not matter (2× the matrix ended 5–9 px away before)."""
+    from hvs_sim.tracking.ecc import ecc_template, find_transform
+
+    grey = cv2.cvtColor(photo("chelsea"), cv2.COLOR_RGB2GRAY)
+    Hm = perspective(np.random.default_rng(3).uniform(-3.0, 3.0, (4, 2)))
+    frame = cv2.warpPerspective(grey, Hm, (W, H), flags=cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT)
+    start = np.array([[1, 0, ROI[0] + 1.0], [0, 1, ROI[1] - 1.0], [0, 0, 1]])
+    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 50, 1e-6)
+    corners = roi_corners((0, 0, ROI[2], ROI[3]))
+    found = [apply(find_transform(ecc_template(grey, ROI, 5), frame, k * start, cv2.MOTION_HOMOGRAPHY, criteria, None,
+                                  5)[1].astype(float), corners) for k in (1.0, 2.0)]
+    assert np.abs(found[0] - found[1]).max() < 1e-3
+    assert np.abs(found[0] - apply(Hm, corners + ROI[:2])).max() < 0.5
+
+
 def test_ecc_filter_size_is_checked():
     from hvs_sim.errors import ConfigError
     from hvs_sim.tracking.ecc import check_gauss
@@ -268,8 +286,9 @@ def test_ecc_filter_size_is_checked():
 
 
 
-def test_ecc_brings_back_a_homography_that_feature_lk_leaves_pixels_off_on_a_weak_texture():
-    # marble (procedural) under a 1.1× exposure change: the 8-parameter feature LK ends pixels off; ECC from its answer
+def test_intensity_refinement_brings_back_a_homography_that_feature_lk_leaves_pixels_off_on_a_weak_texture():
+    # marble (procedural) under a 1.1× exposure change: the 8-parameter feature LK ends pixels off; the intensity
+    # refinement (intensity_ic.py) from its answer
     # recovers the warp when that is within its reach (aligner.INTENSITY_REFINE_MAX_PX, 2 work px; 1 refused it)
     from hvs_sim.scene.textures import natural_texture
 
@@ -289,7 +308,7 @@ def test_ecc_brings_back_a_homography_that_feature_lk_leaves_pixels_off_on_a_wea
             true = cv2.perspectiveTransform(roi_corners(ROI)[None].astype(np.float64), Hm)[0]
             errs.append(np.linalg.norm(tk.corners - true, axis=1).max())
         out[refine] = np.array(errs)
-    # warp 1: LK ends 4.4 px off at the ROI's corners, and ECC's move, measured at the template's corner pixels in
+    # warp 1: LK ends 4.4 px off at the ROI's corners, and the refinement's move, measured at the template's corner pixels in
     # work px, stays within the cap: refined to < 0.5 px. Warps 0 and 2 end 7–8 px off, beyond the cap, and stay as
     # LK left them (an occluder's pull is what the cap is for)
     assert out[False][1] > 4.0 and out[True][1] < 0.5, out

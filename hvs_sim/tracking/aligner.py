@@ -22,14 +22,15 @@ import numpy as np
 import torch
 
 from hvs_sim.errors import ConfigError
-from hvs_sim.tracking.ecc import ecc_template, find_transform
+from hvs_sim.tracking.ecc import ecc_template
 from hvs_sim.tracking.feature_lk import HUBER_K, MAD_TO_SIGMA, AlignResult, FeatureICLK, LKConfig
 from hvs_sim.tracking.frames import roi_center, to_grey
 from hvs_sim.tracking.global_match import GlobalMatcher, Match
+from hvs_sim.tracking.intensity_ic import SMOOTH_MODES, IntensityIC
 from hvs_sim.tracking.nets.vgg import vgg16_pool2
 from hvs_sim.tracking.occlusion import TAU_PIX, OcclusionReference, aligned_patch
 from hvs_sim.tracking.trackability import MIN_TRACKABILITY
-from hvs_sim.tracking.warp import apply, check_warp, is_affine, matrix_to_pose, pose_to_matrix, translate, warp_image
+from hvs_sim.tracking.warp import apply, check_warp, is_affine, matrix_to_pose, pose_to_matrix, translate
 from hvs_sim.validate import check_number
 
 MIN_CROP = 16  # work px: a crop smaller than this on a side means the target is (nearly) off the frame
@@ -38,13 +39,13 @@ RECTIFY_DEG, RECTIFY_SCALE = 0.5, 0.01  # re-make the rectified search template 
 # the residual's correction is kept only when its feature cost is below this share of LK's own (a
 # correction that does not improve the fit comes from a texture unlike the regressor's training)
 RESIDUAL_GAIN = 1.0
-ECC_CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 1e-5)  # intensity refinement of a homography
-# work px: the most ECC may move a template corner from LK's answer. On weakly textured templates (marble, wood
+# work px: the most the intensity refinement (ECC before intensity_ic.py) may move a template corner from LK's answer. On weakly textured templates (marble, wood
 # grain: procedural textures) the 8-parameter feature LK ends 1–4 full-res px off and ECC brings it back, which a
 # 1 work px cap refused (p90 of the worst corner 4.3 → 0.43 px); on the photos of the homography benchmark,
 # not used to choose it, 1 → 2 moved median / p90 / max 0.111 / 1.22 / 3.87 → 0.076 / 0.72 / 1.37 px
 INTENSITY_REFINE_MAX_PX = 2.0
-ECC_GAUSS = 5  # OpenCV's default pre-filter
+IC_GAUSS = 5  # the Gaussian both images are smoothed by before the intensity refinement compares them (ECC's default)
+GAIN_STRIDE = 2  # refine_intensity's exposure gain from every 2nd row and column (a quarter of the 0.4 ms)
 # Aligner.coarse skips the search with the template as taken while the estimate is confirmed and OP_t there is at
 # most this: on a partly hidden target that search's seed was what kept the alignment on it (bark, `partial`,
 # natural benchmark: 84 frames ≤ 1 px without it against 125 with it)
@@ -52,9 +53,9 @@ AS_TAKEN_SKIP_OCCLUSION = 0.1
 # work px kept around a patch's corners in Aligner.work_colour_near: bilinear sampling reads one pixel beyond
 # a sample point, so the crop's edge is never read where the frame's would not be
 COLOUR_CROP_MARGIN = 2
-# a mask costs accuracy at the template's edges (0.05 → 0.16 px on a clear hand-held clip), so ECC is
-# masked only when part of the target is hidden
-ECC_MASK_BELOW = 0.98
+# a mask costs accuracy at the template's edges (0.05 → 0.16 px on a clear hand-held clip, with ECC), so the
+# intensity refinement is masked only when part of the target is hidden
+MASK_BELOW = 0.98
 
 
 def select_device(device: str) -> torch.device:
@@ -99,8 +100,11 @@ class DeepLKConfig:
     # "homography" (a plane in perspective: its four corners are true perspective corners, so a
     # servo loop can control all six DOF)
     warp: str = "similarity"
-    # homography only: refine LK's answer by ECC on the grey template (refine_intensity)
+    # homography only: refine LK's answer on the full-resolution grey template (refine_intensity, intensity_ic.py)
     refine_intensity: bool = True
+    # ... smoothing the frame on the template's grid ("template") or in its own pixels ("frame"; the hybrid's):
+    # intensity_ic.SMOOTH_MODES says what each measured
+    intensity_smooth: str = "template"
     # search with the template as taken on every frame, beside the template rectified by the current θ, s
     # (False, the hybrid's default: only when the rectified search does not confirm an unhidden estimate;
     # see Aligner.coarse)
@@ -118,6 +122,8 @@ class DeepLKConfig:
                      "always_search_as_taken", "search_near_first"):
             if not isinstance(getattr(self, flag), (bool, np.bool_)):
                 raise ConfigError(f"{flag} must be True or False, got {getattr(self, flag)!r}")
+        if self.intensity_smooth not in SMOOTH_MODES:
+            raise ConfigError(f"intensity_smooth must be one of {', '.join(SMOOTH_MODES)}, got {self.intensity_smooth!r}")
         if self.residual and self.warp != "similarity":
             raise ConfigError("the residual regressor predicts a similarity correction; it cannot refine a "
                               f"{self.warp} warp: use residual=False with warp={self.warp!r}")
@@ -243,8 +249,11 @@ class Aligner:
         work = self.work_image(frame)
         x, y, w, h = roi
         self.template_full = self.full_grey[y:y + h, x:x + w].astype(np.float32)
-        self.full_reference = OcclusionReference(self.template_full)  # its exposure gain (refine_intensity)
-        self.template_ecc = ecc_template(self.full_grey, roi, ECC_GAUSS)  # for refine_intensity (ecc.py)
+        # its exposure gain (refine_intensity), from every GAIN_STRIDE-th pixel: one number needs no 7 000 ratios
+        self.full_reference = OcclusionReference(self.template_full[::GAIN_STRIDE, ::GAIN_STRIDE])
+        if self.config.warp == "homography" and self.config.refine_intensity:  # its model of the template
+            self.intensity_ic = IntensityIC(ecc_template(self.full_grey, roi, IC_GAUSS), IC_GAUSS, self.template_full,
+                                            self.config.intensity_smooth)
         self.full_origin = np.array([x, y], float)
         s = self.config.scale
         self.center0 = roi_center(roi)
@@ -440,31 +449,22 @@ class Aligner:
         return Alignment(A_new, out, used)
 
     def refine_intensity(self, A_work: np.ndarray) -> np.ndarray | None:
-        """ECC (OpenCV: zero-mean normalised intensities, so a change of exposure does not bias it) of
-        the full-resolution grey template in the last frame, from A_work; the refined work warp, or
-        None when ECC does not converge. For the homography: VGG features change with perspective
-        (they are not equivariant to it), which biased LK's corners by 0.1–0.3 px."""
+        """The homography from A_work refined on the full-resolution grey template, with the exposure's gain
+        and offset fitted (intensity_ic.py); the refined work warp, or None when that fails. VGG features
+        change with perspective (they are not equivariant to it), which biased LK's corners by 0.1–0.3 px."""
         T = np.array([[1, 0, self.full_origin[0]], [0, 1, self.full_origin[1]], [0, 0, 1.0]])
         A_full = self.to_full(A_work)
-        W = (A_full @ T).astype(np.float32)
         # template pixels that the frame shows as they were (not an occluder), as in OP_t
         patch, inside = aligned_patch(self.full_grey, A_full, self.full_origin, self.template_full.shape)
-        gain = self.full_reference.gain(patch, inside) if self.config.normalise_exposure else 1.0
+        gain = self.full_reference.gain(patch[::GAIN_STRIDE, ::GAIN_STRIDE], inside[::GAIN_STRIDE, ::GAIN_STRIDE]) \
+            if self.config.normalise_exposure else 1.0
         seen = inside & (np.abs(patch.astype(np.float32) - gain * self.template_full) < self.config.tau_pix)
         if seen.mean() < MIN_VALID:
             return None
-        mask = None
-        if seen.mean() < ECC_MASK_BELOW:  # ECC's mask is on the frame: the seen template pixels, warped there
-            h, w = self.full_grey.shape
-            mask = warp_image(seen.astype(np.uint8), A_full @ T, (w, h), flags=cv2.INTER_NEAREST)
-        try:
-            _, W = find_transform(self.template_ecc, self.full_grey, W, cv2.MOTION_HOMOGRAPHY, ECC_CRITERIA, mask,
-                                  ECC_GAUSS)
-        except cv2.error:
+        result = self.intensity_ic.align(self.full_grey, A_full @ T, seen if seen.mean() < MASK_BELOW else None)
+        if result is None:
             return None
-        A = W.astype(float) @ np.linalg.inv(T)
-        if not np.all(np.isfinite(A)):
-            return None
+        A = result.warp @ np.linalg.inv(T)
         w = float(A[2, :2] @ self.center0 + A[2, 2])  # scale so that w = 1 (> 0) at the template, not at the frame origin
         return self.to_work(A / w) if abs(w) > 1e-12 else None
 

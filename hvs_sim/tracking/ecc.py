@@ -41,10 +41,15 @@ def ecc_template(grey: np.ndarray, roi, gauss: int) -> np.ndarray:
 def find_transform(template: np.ndarray, grey: np.ndarray, warp: np.ndarray, motion: int, criteria,
                    mask: np.ndarray | None, gauss: int) -> tuple[float, np.ndarray]:
     """cv2.findTransformECC of an `ecc_template` in the frame `grey` (pre-filtered here, whole, with the
-    same size). Raises cv2.error as OpenCV does when it does not converge.
+    same size). Raises cv2.error as OpenCV does when it does not converge. A homography is handed over with
+    h33 = 1: OpenCV's Jacobian of the homography takes h33 = 1 whatever the matrix holds (ecc.cpp), so a
+    matrix scaled otherwise is refined along the wrong directions.
 
     A mask on the frame is used as given. OpenCV, when it filters, also drops the pixels within the filter's
     reach of a masked-out one; doing the same here measured worse where the mask is speckled by noise (warped
     photos with noise: median worst-corner error 0.11 → 0.14 px, p90 0.68 → 1.23 px) and slightly better under a
     walking occluder (0.266 → 0.254 px), so it is not done."""
-    return cv2.findTransformECC(template, prefilter(grey, gauss), warp.astype(np.float32), motion, criteria, mask, 1)
+    warp = np.array(warp, np.float32)
+    if motion == cv2.MOTION_HOMOGRAPHY:
+        warp /= warp[2, 2]
+    return cv2.findTransformECC(template, prefilter(grey, gauss), warp, motion, criteria, mask, 1)

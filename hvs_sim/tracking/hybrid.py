@@ -36,7 +36,7 @@ the estimate stops moving until re-acquisition.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -68,15 +68,24 @@ from hvs_sim.tracking.warp import matrix_to_pose, translate
 # (median; at most 0.009) and an alignment took 6.8 iterations instead of 9.2 (README, hybrid speed). The
 # residual variants keep deep_lk's alignment: the regressor reads pool2.
 HYBRID_LK = LKConfig(levels=("pool1", "conv1_2"), iterations=(15, 8), channels=8, eps=1e-2, coarse_eps=3e-2)
+# With the homography, the intensity refinement (Aligner.refine_intensity, intensity_ic.py) takes the LK's answer to
+# the full-resolution optimum, so conv1_2 only has to bring it within that refinement's reach: 3 iterations there
+# instead of up to 8 (5.4 on average). On the speed benchmark's frames that took ~0.8 ms off the homography
+# hybrid's median, and the corners on warped photos and tilted hand-held sequences stayed where 8 left them (within
+# 0.003 px in the median; README, homography). pool1 alone was faster again but ended 3–11 px off on a tenth of the
+# warped photos, from the identity.
+HYBRID_LK_HOMOGRAPHY = replace(HYBRID_LK, iterations=(15, 3))
 HYBRID_MARGIN = 5
 
 
-def hybrid_deep_config(residual: bool = False) -> DeepLKConfig:
-    """The hybrid's default alignment settings: the fast LK above, or, with the residual regressor,
+def hybrid_deep_config(residual: bool = False, warp: str = "similarity") -> DeepLKConfig:
+    """The hybrid's default alignment settings: the fast LK above (for `warp`), or, with the residual regressor,
     deep_lk's (pool2 → pool1 → conv1_2 on all channels)."""
     if residual:
         return DeepLKConfig()
-    return DeepLKConfig(lk=HYBRID_LK, margin=HYBRID_MARGIN, always_search_as_taken=False, search_near_first=True)
+    lk = HYBRID_LK_HOMOGRAPHY if warp == "homography" else HYBRID_LK
+    return DeepLKConfig(lk=lk, margin=HYBRID_MARGIN, always_search_as_taken=False, search_near_first=True,
+                        intensity_smooth="frame")
 
 
 CONFIDENCE_HALF_LIFE = 30  # frames (1 s at 30 Hz) since the last alignment over which an unaligned pose's confidence halves
