@@ -70,7 +70,7 @@ from hvs_sim.tracking.warp import matrix_to_pose, translate
 HYBRID_LK = LKConfig(levels=("pool1", "conv1_2"), iterations=(15, 8), channels=8, eps=1e-2, coarse_eps=3e-2)
 # With the homography, the intensity refinement (Aligner.refine_intensity, intensity_ic.py) takes the LK's answer to
 # the full-resolution optimum, so conv1_2 only has to bring it within that refinement's reach: 3 iterations there
-# instead of up to 8 (5.4 on average). On the speed benchmark's frames that took ~0.8 ms off the homography
+# instead of up to 8 (5.4 on average). On the speed benchmark's frames that took ~0.5 ms off the homography
 # hybrid's median, and the corners on warped photos and tilted hand-held sequences stayed where 8 left them (within
 # 0.003 px in the median; README, homography). pool1 alone was faster again but ended 3–11 px off on a tenth of the
 # warped photos, from the identity.
