@@ -106,11 +106,13 @@ class IntensityIC:
         shift = np.array([[1.0, 0, -x0], [0, 1.0, -y0], [0, 0, 1.0]])
         return prefilter(grey[y0:y1, x0:x1], self.gauss), shift
 
-    def _resampled(self, grey: np.ndarray, W: np.ndarray) -> np.ndarray:
-        """The frame on the template's grid under W, smoothed as the template was (flattened float32)."""
+    def _resampled(self, grey: np.ndarray, W: np.ndarray, box: tuple[np.ndarray, np.ndarray] | None) -> np.ndarray:
+        """The frame on the template's grid under W, smoothed as the template was (flattened float32); `box`:
+        smooth="frame"'s smoothed box and its shift (`_frame_box`), else None."""
         h, w = self.shape
-        if self.smooth == "frame":
-            return cv2.warpPerspective(self._box, self._box_shift @ W, (w, h), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+        if box is not None:
+            smoothed, shift = box
+            return cv2.warpPerspective(smoothed, shift @ W, (w, h), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                                        borderMode=cv2.BORDER_REPLICATE).ravel()
         p = self.pad
         to_frame = W @ np.array([[1.0, 0, -p], [0, 1.0, -p], [0, 0, 1.0]])
@@ -156,12 +158,11 @@ class IntensityIC:
             hess_inv = np.linalg.inv(hess)
         except np.linalg.LinAlgError:
             return None
-        if self.smooth == "frame":
-            self._box, self._box_shift = self._frame_box(grey, W)
+        box = self._frame_box(grey, W) if self.smooth == "frame" else None
         t_mean = float(t.mean())
         t0 = t - t_mean
         for it in range(1, IC_ITERATIONS + 1):
-            img = self._resampled(grey, W)
+            img = self._resampled(grey, W, box)
             if use is not None:
                 img = img[use]
             # exposure: the frame's gain and offset that best match the template (least squares)
