@@ -1,8 +1,8 @@
 """The homography's last refinement: inverse-compositional Gauss–Newton on the grey template, in its own frame.
 
 The feature LK leaves a homography 0.1–0.3 px off (VGG features are not equivariant to perspective), so the
-aligner refines it on the full-resolution grey template. OpenCV's ECC does that in the frame's pixels: it
-smooths the frame there and the template in the template's, and where the warp scales or shears the two are
+aligner refines it on the full-resolution grey template. OpenCV's ECC, which did this before, works in the frame's
+pixels: it smooths the frame there and the template in the template's, and where the warp scales or shears the two are
 smoothed by different amounts, which moved its optimum up to 0.3 px off the truth on sharp photos; and it costs
 ~0.25 ms an iteration on a 120×84 template (its Jacobian images are rebuilt every iteration).
 
