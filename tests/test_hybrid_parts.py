@@ -39,6 +39,8 @@ def test_registry_names_build_with_distinct_colours_and_unknown_settings_are_cle
     assert make_tracker("hybrid_cv").hconfig.predictor == "constant_velocity"
     with pytest.raises(ConfigError, match="accepted: .*occlusion_gate"):
         make_tracker("hybrid", occlusion_gat=0.3)
+    with pytest.raises(ConfigError, match="gate_after_alignment must be True or False, got 'no'"):
+        make_tracker("hybrid", gate_after_alignment="no")
     with pytest.raises(ConfigError, match="ratio"):
         make_tracker("sift", ratioo=0.5)
 

@@ -65,6 +65,33 @@ def test_homography_tracker_recovers_perspective_warps_of_photos(homography_lk, 
     assert err.max() < 0.1, err
 
 
+def test_hybrid_gates_occlusion_where_it_aligned_not_at_a_misaligned_seed():
+    # a sharp photo 4 px out of perspective: OP_t at the unaligned seed reads 0.41, over the 0.4 gate, though nothing
+    # covers it; the paper's rule (gate at the seed) predicts, and stays 4.7 px off
+    from sklearn.datasets import load_sample_image
+
+    img = cv2.resize(load_sample_image("flower.jpg"), (W, H), interpolation=cv2.INTER_AREA)
+    Hm = perspective(np.random.default_rng([5, 3]).uniform(-4, 4, (4, 2)))
+    frame = cv2.warpPerspective(img, Hm, (W, H), flags=cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT)
+    true = cv2.perspectiveTransform(roi_corners(ROI)[None].astype(np.float64), Hm)[0]
+    seed_gate, hybrid = make_tracker("hybrid_seed_gate", warp="homography"), make_tracker("hybrid", warp="homography")
+    assert hybrid.hconfig.gate_after_alignment and not make_tracker("hybrid_paper").hconfig.gate_after_alignment
+    for tracker in (seed_gate, hybrid):
+        tracker.init(img, ROI)
+    tk = seed_gate.update(frame)
+    assert tk.mode == "predict" and tk.occlusion >= hybrid.hconfig.occlusion_gate
+    tk = hybrid.update(frame)
+    assert tk.mode == "align" and tk.occlusion < 0.05  # OP_t where it aligned
+    assert np.linalg.norm(tk.corners - true, axis=1).max() < 0.1
+    # a board over 40 % of the target: the match stays confident, so the frame is aligned, and refused by OP_t there
+    covered = frame.copy()
+    x, y, w, h = ROI
+    covered[y - 10:y + h + 10, x - 10:x + int(0.4 * w)] = (90, 120, 60)
+    hybrid.seed(np.eye(3))
+    tk = hybrid.update(covered)
+    assert tk.score >= hybrid.config.match_threshold and tk.mode != "align"
+
+
 def test_similarity_tracker_cannot_follow_a_perspective_warp():
     # the reason for the homography: a similarity leaves corners of a tilted target pixels off
     err = corner_errors(make_tracker("deep_lk"), "chelsea")
