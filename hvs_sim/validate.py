@@ -1,9 +1,11 @@
-"""Checks for numeric settings: one message format naming the setting and the accepted range."""
+"""Checks for settings: one message format naming the setting and what is accepted."""
 
 from __future__ import annotations
 
 import math
 import numbers
+
+import numpy as np
 
 from hvs_sim.errors import ConfigError
 
@@ -24,3 +26,12 @@ def check_number(name: str, value, lo: float | None = None, hi: float | None = N
         right = ")" if hi_open else "]"
         rng = f" in {left}{'-inf' if lo is None else lo}, {'inf' if hi is None else hi}{right}"
         raise ConfigError(f"{name} must be {kind}{rng if (lo is not None or hi is not None) else ''}, got {value!r}")
+
+
+def check_flags(config, names: tuple[str, ...]) -> None:
+    """Each named attribute of `config` is True or False (numpy's bool too): a truthy string such as 'no' would
+    otherwise switch a setting on without a word."""
+    for name in names:
+        value = getattr(config, name)
+        if not isinstance(value, (bool, np.bool_)):
+            raise ConfigError(f"{name} must be True or False, got {value!r}")

@@ -83,13 +83,34 @@ def test_hybrid_gates_occlusion_where_it_aligned_not_at_a_misaligned_seed():
     tk = hybrid.update(frame)
     assert tk.mode == "align" and tk.occlusion < 0.05  # OP_t where it aligned
     assert np.linalg.norm(tk.corners - true, axis=1).max() < 0.1
-    # a board over 40 % of the target: the match stays confident, so the frame is aligned, and refused by OP_t there
+    # a board over 55 % of the target: the match stays confident, so the frame is aligned (LK ran), and OP_t there
+    # refuses it
     covered = frame.copy()
     x, y, w, h = ROI
-    covered[y - 10:y + h + 10, x - 10:x + int(0.4 * w)] = (90, 120, 60)
+    covered[y - 10:y + h + 10, x - 10:x + int(0.55 * w)] = (90, 120, 60)
     hybrid.seed(np.eye(3))
     tk = hybrid.update(covered)
-    assert tk.score >= hybrid.config.match_threshold and tk.mode != "align"
+    assert tk.score >= hybrid.config.match_threshold and "lk" in hybrid.stage_ms
+    assert tk.mode != "align" and tk.occlusion >= hybrid.hconfig.occlusion_gate
+    # a far re-acquisition through a seed that fails the gate is confirmed after reacquire_frames frames, as any other:
+    # the seed made to read as hidden (the first OP_t of each frame is the seed's), the estimate 30 px off
+    far = make_tracker("hybrid", warp="homography")
+    far.init(img, ROI)
+    far.seed(np.array([[1.0, 0, 30.0], [0, 1, 0], [0, 0, 1]]))
+    calls, measured = [], far._occlusion_at
+
+    def seed_reads_hidden(frame, A, grey):
+        calls.append(A)
+        return max(measured(frame, A, grey), 0.5) if len(calls) == 1 else measured(frame, A, grey)
+
+    far._occlusion_at = seed_reads_hidden
+    modes = []
+    for _ in range(far.hconfig.reacquire_frames):
+        calls.clear()
+        modes.append(far.update(frame).mode)
+        assert len(calls) == 2  # gated again where it aligned
+    assert modes == ["predict"] * (far.hconfig.reacquire_frames - 1) + ["align"], modes
+    assert np.linalg.norm(far.update(frame).corners - true, axis=1).max() < 0.1
 
 
 def test_similarity_tracker_cannot_follow_a_perspective_warp():

@@ -31,7 +31,7 @@ from hvs_sim.tracking.nets.vgg import vgg16_pool2
 from hvs_sim.tracking.occlusion import TAU_PIX, OcclusionReference, aligned_patch
 from hvs_sim.tracking.trackability import MIN_TRACKABILITY
 from hvs_sim.tracking.warp import apply, check_warp, is_affine, matrix_to_pose, pose_to_matrix, translate
-from hvs_sim.validate import check_number
+from hvs_sim.validate import check_flags, check_number
 
 MIN_CROP = 16  # work px: a crop smaller than this on a side means the target is (nearly) off the frame
 MIN_VALID = 0.3  # share of template points that must land inside the crop for an alignment to count
@@ -118,10 +118,8 @@ class DeepLKConfig:
         if not isinstance(self.lk, LKConfig):
             raise ConfigError(f"lk must be an LKConfig (or, through make_tracker, a dict of its settings), got "
                               f"{type(self.lk).__name__}")
-        for flag in ("residual", "verify_residual", "allow_untrackable", "normalise_exposure", "refine_intensity",
-                     "always_search_as_taken", "search_near_first"):
-            if not isinstance(getattr(self, flag), (bool, np.bool_)):
-                raise ConfigError(f"{flag} must be True or False, got {getattr(self, flag)!r}")
+        check_flags(self, ("residual", "verify_residual", "allow_untrackable", "normalise_exposure", "refine_intensity",
+                           "always_search_as_taken", "search_near_first"))
         if self.intensity_smooth not in SMOOTH_MODES:
             raise ConfigError(f"intensity_smooth must be one of {', '.join(SMOOTH_MODES)}, got {self.intensity_smooth!r}")
         if self.residual and self.warp != "similarity":

@@ -59,6 +59,7 @@ from hvs_sim.tracking.sources import (
 )
 from hvs_sim.tracking.trackability import check_trackable
 from hvs_sim.tracking.warp import matrix_to_pose, translate
+from hvs_sim.validate import check_flags
 
 # The hybrid's feature LK (README, tracker speed). The global match seeds it within about a work pixel on
 # every frame it aligns, so it starts at pool1 (stride 2) without pool2's wider basin, which cost the
@@ -135,10 +136,8 @@ class HybridConfig:
     reacquire_frames: int = 3
 
     def __post_init__(self):
-        for flag in ("continuity", "colour_occlusion", "gate_after_alignment", "background", "reanchor",
-                     "verify_reacquisition"):
-            if not isinstance(getattr(self, flag), (bool, np.bool_)):
-                raise ConfigError(f"{flag} must be True or False, got {getattr(self, flag)!r}")
+        check_flags(self, ("continuity", "colour_occlusion", "gate_after_alignment", "background", "reanchor",
+                           "verify_reacquisition"))
         if not 0 < self.occlusion_gate <= 1:
             raise ConfigError(f"occlusion_gate must be in (0, 1], got {self.occlusion_gate}")
         if self.predictor not in PREDICTORS:
@@ -301,7 +300,7 @@ class HybridTracker(Tracker):
         if m.score <= 0:  # blank or uniform frame
             occ = 1.0
         gate = self.hconfig.occlusion_gate
-        confident = m.score >= self.config.match_threshold or (self.hconfig.continuity and is_current)
+        confident = m.score > 0 and (m.score >= self.config.match_threshold or (self.hconfig.continuity and is_current))
         if confident and (occ < gate or self.hconfig.gate_after_alignment):
             A_new = al.align(work, A_seed).A_work
             occ_aligned = occ
@@ -313,7 +312,7 @@ class HybridTracker(Tracker):
             if A_new is not None and self._verified(al.to_full(A_new), m):
                 st.aligned(work, al.to_full(A_new), self.sources)
                 return Estimate(st.A, Mode.ALIGN, occ_aligned, m.score)
-            if occ >= gate:
+            if occ_aligned >= gate:  # not gated in (where _verified ran, it keeps its own count)
                 st.jump_seen(None, 0.0)
         else:
             st.jump_seen(None, 0.0)
