@@ -17,6 +17,7 @@ and PyWavelets'; experiments/bench_homography.py), worst corner median / p90 / m
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import cv2
@@ -79,7 +80,10 @@ class IntensityIC:
         sd = rho * (gx.ravel()[:, None] * jx + gy.ravel()[:, None] * jy)  # (n, 8)
         self.sd_t = np.ascontiguousarray(sd.T, np.float32)  # (8, n): one matrix-vector product per step
         self.hess = sd.T @ sd
+        self.hess_inv = _inverse(self.hess)  # None: the template has too little texture to align
         self.t_flat = t.ravel()
+        self.t0 = self.t_flat - float(self.t_flat.mean())
+        self.sd_t0 = (self.sd_t @ self.t0).astype(np.float64)
         self.corners_h = np.array([[0, 0, 1], [w - 1, 0, 1], [w - 1, h - 1, 1], [0, h - 1, 1]], np.float64).T
         self.grid_h = np.stack([xs.ravel(), ys.ravel(), np.ones(h * w)]).astype(np.float64)  # for the frame check
         self.spread = np.ones((2 * (gauss // 2) + 1,) * 2, np.uint8)  # how far the Gaussian carries a pixel
@@ -136,7 +140,8 @@ class IntensityIC:
     def align(self, grey: np.ndarray, W0: np.ndarray, seen: np.ndarray | None = None) -> ICResult | None:
         """Refine W0 (template px → frame px) in the grey frame; `seen`: template pixels to use (bool, template
         shape; None: all). None when too few pixels are usable, the system is singular or a step diverges."""
-        grey = grey.astype(np.float32, copy=False)
+        if self.smooth == "template" or grey.dtype not in (np.uint8, np.float32):
+            grey = grey.astype(np.float32, copy=False)  # bicubic resampling of uint8 would round its output
         W = np.asarray(W0, np.float64) / W0[2, 2]
         use = None if seen is None else np.asarray(seen, bool).ravel()
         inside = self._in_frame(W, grey.shape[:2])
@@ -148,39 +153,61 @@ class IntensityIC:
         for clipped in (self._clipped(raw), self.template_clipped):
             if clipped is not None:
                 use = ~clipped if use is None else use & ~clipped
-        sd_t, hess, t = self.sd_t, self.hess, self.t_flat
-        if use is not None:
+        if use is None:  # the whole template: its system, made once
+            sd_t, hess_inv, t0, sd_t0 = self.sd_t, self.hess_inv, self.t0, self.sd_t0
+        else:
             if use.sum() < MIN_PIXELS:
                 return None
-            sd_t, t = np.ascontiguousarray(sd_t[:, use]), t[use]
-            hess = sd_t.astype(np.float64) @ sd_t.T.astype(np.float64)
-        try:
-            hess_inv = np.linalg.inv(hess)
-        except np.linalg.LinAlgError:
+            sd_t, t = np.ascontiguousarray(self.sd_t[:, use]), self.t_flat[use]
+            hess_inv = _inverse(sd_t.astype(np.float64) @ sd_t.T.astype(np.float64))
+            t0 = t - float(t.mean())
+            sd_t0 = (sd_t @ t0).astype(np.float64)
+        if hess_inv is None:
             return None
         box = self._frame_box(grey, W) if self.smooth == "frame" else None
-        t_mean = float(t.mean())
-        t0 = t - t_mean
+        old = W @ self.corners_h
+        old = old[:2] / old[2]
         for it in range(1, IC_ITERATIONS + 1):
             img = self._resampled(grey, W, box)
             if use is not None:
                 img = img[use]
-            # exposure: the frame's gain and offset that best match the template (least squares)
+            # exposure: the frame's gain and offset that best match the template (least squares); the error
+            # gain · (img − mean) − t0 enters only through sd_t, so sd_t @ t0 is taken once a call
             i0 = img - img.mean()
             var = float(i0 @ i0)
             if var <= 1e-9:
                 return None
-            gain = float(i0 @ t0) / var
-            err = gain * i0 - t0
-            dp = hess_inv @ (sd_t @ err).astype(np.float64)
-            step = self.N_inv @ np.linalg.inv(homography_params_to_matrix(dp)) @ self.N
-            W_new = W @ step
-            W_new /= W_new[2, 2]
-            old, new = W @ self.corners_h, W_new @ self.corners_h
-            moved = float(np.abs(new[:2] / new[2] - old[:2] / old[2]).max())
-            if not np.all(np.isfinite(W_new)) or moved > IC_MAX_STEP_PX:
+            dp = hess_inv @ ((float(i0 @ t0) / var) * (sd_t @ i0).astype(np.float64) - sd_t0)
+            inv = _inverse_3x3(homography_params_to_matrix(dp))
+            if inv is None:
                 return None
-            W = W_new
+            W_new = W @ (self.N_inv @ inv @ self.N)
+            W_new /= W_new[2, 2]
+            new = W_new @ self.corners_h
+            new = new[:2] / new[2]
+            moved = float(np.abs(new - old).max())
+            if not np.all(np.isfinite(W_new)) or not moved <= IC_MAX_STEP_PX:
+                return None
+            W, old = W_new, new
             if moved < IC_EPS_PX:
                 return ICResult(W, it, True)
         return ICResult(W, IC_ITERATIONS, False)
+
+
+def _inverse(hess: np.ndarray) -> np.ndarray | None:
+    try:
+        return np.linalg.inv(hess)
+    except np.linalg.LinAlgError:
+        return None
+
+
+def _inverse_3x3(M: np.ndarray) -> np.ndarray | None:
+    """The inverse of a 3×3 matrix by its adjugate (a fifth of np.linalg.inv's call on so small a matrix, which the
+    refinement makes every step); None when it is singular."""
+    (a, b, c), (d, e, f), (g, h, i) = M.tolist()
+    A, B, C = e * i - f * h, f * g - d * i, d * h - e * g
+    det = a * A + b * B + c * C
+    if det == 0.0 or not math.isfinite(det):
+        return None
+    return np.array([[A, c * h - b * i, b * f - c * e], [B, a * i - c * g, c * d - a * f],
+                     [C, b * g - a * h, a * e - b * d]]) / det
