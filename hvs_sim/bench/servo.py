@@ -4,7 +4,7 @@ A method is a loop tracker with, optionally, its warp model and the servo law:
 `TRACKER[:homography][/pbvs]`, e.g. `ground_truth`, `ground_truth/pbvs`, `hybrid:homography`, `hybrid`
 (the similarity hybrid, which controls 4 DOF). Start poses are drawn over the ranges of the classic
 IBVS test cases (ViSP's tutorials, Chaumette's examples), scaled to the 0.8 m standoff: lateral
-±10 cm, target depth 0.6–1.3 × the standoff, roll ±60°, pitch and yaw ±15°; a draw the arm cannot reach or
+±10 cm, target depth 0.7–1.4 × the standoff, roll ±60°, pitch and yaw ±15°; a draw the arm cannot reach or
 from which the target is not fully in view is drawn again (seeded)."""
 
 from __future__ import annotations
