@@ -435,7 +435,7 @@ class Aligner:
         A_new = self.N_inv @ res.M @ self.N
         if self.config.warp == "homography" and self.config.refine_intensity and np.all(np.isfinite(A_new)):
             t0 = time.perf_counter()
-            A_ecc = self.refine_intensity(A_new, seed_occlusion is not None and seed_occlusion <= MASK_SKIP_OCCLUSION)
+            A_ecc = self.refine_intensity(A_new, bool(seed_occlusion is not None and seed_occlusion <= MASK_SKIP_OCCLUSION))
             self._timed("refine", t0)
             # kept only near LK's answer: ECC has no robust weights, an occluder can pull it away
             if A_ecc is not None and np.abs(apply(A_ecc, self.t_corners) - apply(A_new, self.t_corners)).max() <= \
