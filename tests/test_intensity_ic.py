@@ -138,31 +138,3 @@ def test_frame_mode_gives_the_same_answer_for_a_uint8_and_a_float_frame_and_a_fl
     flat = np.full((H, W), 90, np.uint8)
     assert IntensityIC(ecc_template(flat, ROI, 5), 5).align(frame, T) is None  # no texture: no system to solve
 
-
-def test_the_hybrid_skips_the_seen_mask_only_where_its_op_t_says_the_target_shows_whole():
-    """Aligner.refine_intensity(visible=True) (OP_t at the seed ≤ MASK_SKIP_OCCLUSION) gives what measuring the
-    mask gives on an unhidden target; the hybrid asks for it only with OP_t that low."""
-    from hvs_sim.tracking import aligner as aligner_module
-    from hvs_sim.tracking import make_tracker
-
-    g = cv2.cvtColor(grey("chelsea"), cv2.COLOR_GRAY2RGB)
-    tracker = make_tracker("hybrid", warp="homography")
-    tracker.init(g, ROI)
-    al = tracker.aligner
-    frame, truth = warped(g, 2)
-    al.work_image(frame)
-    A_work = al.to_work(OFF @ truth @ np.linalg.inv(T))
-    measured, skipped = al.refine_intensity(A_work), al.refine_intensity(A_work, visible=True)
-    assert measured is not None and np.allclose(measured, skipped, atol=1e-9)
-    asked = []
-    original = aligner_module.Aligner.refine_intensity
-    aligner_module.Aligner.refine_intensity = lambda self, A, visible=False: asked.append(visible) or original(self, A, visible)
-    try:
-        tracker.update(frame)  # the seed a few px off: OP_t there counts the misalignment
-        tracker.update(frame)  # the seed where the last frame aligned: OP_t ~0
-        hidden = frame.copy()
-        hidden[ROI[1]:ROI[1] + ROI[3], ROI[0]:ROI[0] + ROI[2] // 4] = 30  # a dark board over a quarter
-        tracker.update(hidden)
-    finally:
-        aligner_module.Aligner.refine_intensity = original
-    assert asked[1] is True and asked[-1] is False, asked

@@ -56,10 +56,6 @@ COLOUR_CROP_MARGIN = 2
 # a mask costs accuracy at the template's edges (0.05 → 0.16 px on a clear hand-held clip, with ECC), so the
 # intensity refinement is masked only when part of the target is hidden
 MASK_BELOW = 0.98
-# OP_t at the seed at most this (the caller measured it): the target shows whole, so refine_intensity skips measuring
-# which template pixels the frame shows (a quarter of its time on the hybrid's frames); that share would be over
-# MASK_BELOW and no mask used
-MASK_SKIP_OCCLUSION = 0.005
 
 
 def select_device(device: str) -> torch.device:
@@ -417,10 +413,9 @@ class Aligner:
 
         return huber(r1[both]) < RESIDUAL_GAIN * huber(r0[both])
 
-    def align(self, work: np.ndarray, A_work: np.ndarray, seed_occlusion: float | None = None) -> Alignment:
+    def align(self, work: np.ndarray, A_work: np.ndarray) -> Alignment:
         """Feature LK (+ residual) from A_work; `A_work` of the result is None when the alignment is
-        rejected (a jump of θ or s, too few points in view, a scale or shift no camera makes). `seed_occlusion`:
-        OP_t at A_work when the caller measured it (MASK_SKIP_OCCLUSION)."""
+        rejected (a jump of θ or s, too few points in view, a scale or shift no camera makes)."""
         out = self.lk(work, A_work)
         if out is None:
             return Alignment(None, None)
@@ -435,7 +430,7 @@ class Aligner:
         A_new = self.N_inv @ res.M @ self.N
         if self.config.warp == "homography" and self.config.refine_intensity and np.all(np.isfinite(A_new)):
             t0 = time.perf_counter()
-            A_ecc = self.refine_intensity(A_new, bool(seed_occlusion is not None and seed_occlusion <= MASK_SKIP_OCCLUSION))
+            A_ecc = self.refine_intensity(A_new)
             self._timed("refine", t0)
             # kept only near LK's answer: ECC has no robust weights, an occluder can pull it away
             if A_ecc is not None and np.abs(apply(A_ecc, self.t_corners) - apply(A_new, self.t_corners)).max() <= \
@@ -451,24 +446,22 @@ class Aligner:
             return Alignment(None, out, used)
         return Alignment(A_new, out, used)
 
-    def refine_intensity(self, A_work: np.ndarray, visible: bool = False) -> np.ndarray | None:
+    def refine_intensity(self, A_work: np.ndarray) -> np.ndarray | None:
         """The homography from A_work refined on the full-resolution grey template, with the exposure's gain
         and offset fitted (intensity_ic.py); the refined work warp, or None when that fails. VGG features
-        change with perspective (they are not equivariant to it), which biased LK's corners by 0.1–0.3 px.
-        `visible`: the caller's OP_t says the target shows whole, so no pixel is masked (MASK_SKIP_OCCLUSION)."""
+        change with perspective (they are not equivariant to it), which biased LK's corners by 0.1–0.3 px."""
         T = np.array([[1, 0, self.full_origin[0]], [0, 1, self.full_origin[1]], [0, 0, 1.0]])
         A_full = self.to_full(A_work)
-        mask = None
-        if not visible:  # template pixels that the frame shows as they were (not an occluder), as in OP_t
-            patch, inside = aligned_patch(self.full_grey, A_full, self.full_origin, self.template_full.shape)
-            gain = self.full_reference.gain(patch[::GAIN_STRIDE, ::GAIN_STRIDE], inside[::GAIN_STRIDE, ::GAIN_STRIDE]) \
-                if self.config.normalise_exposure else 1.0
-            seen = inside & (np.abs(patch.astype(np.float32) - gain * self.template_full) < self.config.tau_pix)
-            shown = seen.mean()
-            if shown < MIN_VALID:
-                return None
-            mask = seen if shown < MASK_BELOW else None
-        result = self.intensity_ic.align(self.full_grey, A_full @ T, mask)
+        # template pixels that the frame shows as they were (not an occluder), as in OP_t; measured at full
+        # resolution on every call: a thin occluder that the working image's 2×2 averaging hides from OP_t shows here
+        patch, inside = aligned_patch(self.full_grey, A_full, self.full_origin, self.template_full.shape)
+        gain = self.full_reference.gain(patch[::GAIN_STRIDE, ::GAIN_STRIDE], inside[::GAIN_STRIDE, ::GAIN_STRIDE]) \
+            if self.config.normalise_exposure else 1.0
+        seen = inside & (np.abs(patch.astype(np.float32) - gain * self.template_full) < self.config.tau_pix)
+        shown = seen.mean()
+        if shown < MIN_VALID:
+            return None
+        result = self.intensity_ic.align(self.full_grey, A_full @ T, seen if shown < MASK_BELOW else None)
         if result is None:
             return None
         A = result.warp @ np.linalg.inv(T)

@@ -302,7 +302,7 @@ class HybridTracker(Tracker):
         gate = self.hconfig.occlusion_gate
         confident = m.score > 0 and (m.score >= self.config.match_threshold or (self.hconfig.continuity and is_current))
         if confident and (occ < gate or self.hconfig.gate_after_alignment):
-            A_new = al.align(work, A_seed, occ).A_work
+            A_new = al.align(work, A_seed).A_work
             occ_aligned = occ
             if A_new is not None and occ >= gate:  # gated again where the target was aligned (gate_after_alignment)
                 grey = None if self.colour_reference is not None else al.occlusion(work, A_new)
