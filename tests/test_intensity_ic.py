@@ -137,4 +137,3 @@ def test_frame_mode_gives_the_same_answer_for_a_uint8_and_a_float_frame_and_a_fl
     assert a is not None and b is not None and worst(a.warp, b.warp) < 1e-9 and a.iterations == b.iterations
     flat = np.full((H, W), 90, np.uint8)
     assert IntensityIC(ecc_template(flat, ROI, 5), 5).align(frame, T) is None  # no texture: no system to solve
-

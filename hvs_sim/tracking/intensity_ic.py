@@ -79,8 +79,7 @@ class IntensityIC:
         # d T(N⁻¹ W(x̃; p)) / dp at p = 0: ∇T (px) · ρ · dx̃'/dp
         sd = rho * (gx.ravel()[:, None] * jx + gy.ravel()[:, None] * jy)  # (n, 8)
         self.sd_t = np.ascontiguousarray(sd.T, np.float32)  # (8, n): one matrix-vector product per step
-        self.hess = sd.T @ sd
-        self.hess_inv = _inverse(self.hess)  # None: the template has too little texture to align
+        self.hess_inv = _inverse(sd.T @ sd)  # None: the template has too little texture to align
         self.t_flat = t.ravel()
         self.t0 = self.t_flat - float(self.t_flat.mean())
         self.sd_t0 = (self.sd_t @ self.t0).astype(np.float64)
