@@ -4,9 +4,11 @@ Importing the package is cheap: MuJoCo, dm_control and torch load only when thei
 """
 
 from hvs_sim.errors import ConfigError, HvsError, InputError, RenderError, StateError, WeightsError
+from hvs_sim.plugins import register_controller, register_policy, register_tracker
 
 __version__ = "0.1.0"
-__all__ = ["ConfigError", "HvsError", "InputError", "RenderError", "StateError", "WeightsError", "__version__"]
+__all__ = ["ConfigError", "HvsError", "InputError", "RenderError", "StateError", "WeightsError", "__version__",
+           "register_controller", "register_policy", "register_tracker"]
 
 
 def _register_envs() -> None:

@@ -16,13 +16,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from hvs_sim.control.protocol import DOF_NAMES, ControlInput, rms_size, scale_depths
 from hvs_sim.errors import ConfigError, InputError, choice_error
 from hvs_sim.validate import check_number
 
-DOF_NAMES = ("vx", "vy", "vz", "wx", "wy", "wz")
 SIMILARITY_DOFS = ("vx", "vy", "vz", "wz")  # what a similarity tracker's corners observe
 RANK_TOL = 1e-6  # singular values below this × the largest count as zero (rank of L)
-CONTROLLERS = ("ibvs", "pbvs")
+CONTROLLERS = ("ibvs", "pbvs", "dvs")  # the built-in laws (dvs: photometric, control/dvs.py)
 # where the tracked features' template comes from (LoopConfig.template_from): the run's first frame ("start"),
 # or an image taken with the camera at the reference pose before the run ("goal": teach-by-showing)
 TEMPLATE_VIEWS = ("start", "goal")
@@ -119,6 +119,7 @@ class ControlOutput:
     gain: float
     saturated: bool
     singular_values: np.ndarray = field(default_factory=lambda: np.zeros(0))  # of the controlled columns of L
+    dofs: tuple[str, ...] | None = None  # the DOFs commanded (None: the law's own `dofs`)
 
     @property
     def rank(self) -> int:
@@ -169,13 +170,15 @@ class IBVSController:
         d = c.gain - c.gain_inf
         return d * math.exp(-c.gain_slope * err_inf / d) + c.gain_inf
 
-    @staticmethod
-    def scale_of(points: np.ndarray) -> float:
-        """Size of a point set: RMS distance to its centroid (a similarity scale up to a constant)."""
-        return float(np.sqrt(((points - points.mean(0)) ** 2).sum(1).mean()))
+    scale_of = staticmethod(rms_size)
 
-    def compute(self, features_px: np.ndarray, depths: np.ndarray | None = None, mode: str = "align") -> ControlOutput:
-        """Twist for the current features (pixels). depths: true per-point Z when config.depth == 'true'."""
+    def compute(self, features_px, depths: np.ndarray | None = None, mode: str = "align") -> ControlOutput:
+        """Twist for the current features: a ControlInput (the law interface, control/protocol.py; its pixels and,
+        with config.depth == 'true', its depths are read), or pixels with the true per-point depths when
+        config.depth == 'true'."""
+        if isinstance(features_px, ControlInput):
+            inp = features_px
+            features_px, depths, mode = inp.features_px, inp.depths, inp.mode
         f = np.asarray(features_px, float).reshape(-1, 2)
         if f.shape != self.desired_px.shape or not np.isfinite(f).all():
             raise InputError(f"features must be finite pixels of shape {self.desired_px.shape}, got {f.shape}")
@@ -187,7 +190,7 @@ class IBVSController:
                 raise InputError("depth='true' needs positive per-point depths from the simulator")
             Z = np.asarray(depths, float)
         else:  # depth from apparent size: Z = Z* · size(s*) / size(s)
-            Z = np.full(len(f), self.desired_depth * self.scale_of(self.s_star) / max(self.scale_of(s), 1e-9))
+            Z = scale_depths(s, self.s_star, self.desired_depth)
         Zs = np.full(len(f), self.desired_depth)
         if self.config.interaction == "current":
             L = interaction_matrix(s, Z)
@@ -205,7 +208,7 @@ class IBVSController:
         if mode != "lost":
             twist[cols] = -lam * (damped_pinv(Lc, (self.config.damping or 0.0) * sv.max()) @ e)
         twist, saturated = bound_twist(twist, self.config.max_linear, self.config.max_angular)
-        return ControlOutput(twist, e, err_px, lam, saturated, sv)
+        return ControlOutput(twist, e, err_px, lam, saturated, sv, self.dofs)
 
 
 def damped_pinv(L: np.ndarray, mu: float) -> np.ndarray:

@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 
 from hvs_sim.control.ibvs import SIMILARITY_DOFS, ControlOutput, IBVSConfig, IBVSController, bound_twist
+from hvs_sim.control.protocol import ControlInput
 from hvs_sim.errors import InputError
 
 
@@ -63,8 +64,11 @@ class PBVSController:
             raise InputError("PBVS: the target's pose could not be estimated from these corners")
         return pose
 
-    def compute(self, features_px: np.ndarray, depths: np.ndarray | None = None, mode: str = "align") -> ControlOutput:
-        """Twist for the current corners (pixels); `depths` is not used (the pose gives them)."""
+    def compute(self, features_px, depths: np.ndarray | None = None, mode: str = "align") -> ControlOutput:
+        """Twist for the current corners: a ControlInput (control/protocol.py) or pixels; `depths` is not used (the
+        pose gives them)."""
+        if isinstance(features_px, ControlInput):
+            features_px, depths, mode = features_px.features_px, features_px.depths, features_px.mode
         img = self.image.compute(features_px, None if self.config.depth != "true" else depths, mode)
         twist = np.zeros(6)
         if mode != "lost":
@@ -74,4 +78,4 @@ class PBVSController:
             cols = self.image.predict_cols if mode == "predict" else self.cols  # ibvs.PREDICT_DOFS
             twist[cols] = full[cols]
         twist, saturated = bound_twist(twist, self.config.max_linear, self.config.max_angular)
-        return ControlOutput(twist, img.error, img.error_px, img.gain, saturated, img.singular_values)
+        return ControlOutput(twist, img.error, img.error_px, img.gain, saturated, img.singular_values, self.dofs)
