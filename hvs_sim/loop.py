@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
+from hvs_sim import plugins
 from hvs_sim.camera_model import distort_points, undistort_points
 from hvs_sim.control.arm import ArmDriver
 from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA, FeatureFilter
@@ -24,13 +25,16 @@ from hvs_sim.control.ibvs import (
     GOAL_FRAMES,
     TEMPLATE_VIEWS,
     TRACKED_6DOF_DAMPING,
+    ControlOutput,
     IBVSConfig,
     IBVSController,
+    bound_twist,
     condition_number,
     dofs_for,
     matrix_rank,
 )
 from hvs_sim.control.pbvs import PBVSController
+from hvs_sim.control.protocol import ControlInput, PolicyInput, scale_depths
 from hvs_sim.errors import ConfigError, HvsError, StateError, choice_error
 from hvs_sim.render.camera import CameraPose
 from hvs_sim.render.renderer import MAX_STILL_FRAMES, GroundTruth, Renderer
@@ -41,7 +45,7 @@ from hvs_sim.tracking.frames import MIN_ROI, inset_roi, roi_corners, roi_from_co
 from hvs_sim.tracking.warp import perspective_transform
 from hvs_sim.validate import check_number
 
-LOOP_TRACKERS = ("ground_truth",) + TRACKER_NAMES
+LOOP_TRACKERS = (plugins.GROUND_TRUTH, plugins.NO_TRACKER) + TRACKER_NAMES  # the built-ins; plugins beside them
 MAX_STEPS = 100_000
 IN_VIEW_MARGIN_PX = 2.0  # the target's corners must be this far inside the image at the start
 # pose bound for `converged`: a 15 cm target at 0.8 m pins lateral translation and pitch/yaw only
@@ -63,7 +67,11 @@ class LoopConfig:
     # Control never reads either: features from the tracker, camera pose from the joints, depth from the
     # tracked scale (IBVSConfig.depth="true" asks the simulator)
     evaluate: bool = True
-    controller: str = "ibvs"  # the servo law: "ibvs" (v = −λ L⁺ e) or "pbvs" (pbvs.py); both use `ibvs`'s gains
+    # the servo law: "ibvs" (v = −λ L⁺ e), "pbvs" (pbvs.py), "dvs" (photometric, dvs.py; no tracker), all with `ibvs`'s
+    # gains, or an outside law (hvs_sim.plugins: a registered name, an entry point, module:callable)
+    controller: str = "ibvs"
+    # an outside policy (image + joints → camera twist, hvs_sim.plugins) in place of tracker and law (tracker "none")
+    policy: str | None = None
     # and the pose must be within these of the reference pose, in the DOFs controlled (ground truth)
     converge_mm: float = CONVERGE_MM
     converge_deg: float = CONVERGE_DEG
@@ -91,7 +99,9 @@ class LoopConfig:
 
     def __post_init__(self):
         if self.controller not in CONTROLLERS:
-            raise choice_error("controller", self.controller, CONTROLLERS)
+            plugins.check("controller", self.controller)
+        if self.policy is not None:
+            plugins.check("policy", self.policy)
         if self.template_from is not None and self.template_from not in TEMPLATE_VIEWS:
             raise choice_error("template_from", self.template_from, TEMPLATE_VIEWS)
         if self.roi_inset_px is not None:
@@ -188,16 +198,16 @@ def template_view(template_from: str | None, tracked_6dof: bool) -> str:
     return template_from or ("goal" if tracked_6dof else "start")
 
 
-def loop_tracker(tracker: str, settings: dict) -> Tracker | None:
-    """The closed loop's tracker by name with its settings (None: the ground_truth oracle). Built
-    before the scene, so a bad name or setting costs no rendering."""
-    if tracker not in LOOP_TRACKERS:
-        raise choice_error("tracker", tracker, LOOP_TRACKERS)
-    if tracker == "ground_truth":
+def loop_tracker(tracker: str, settings: dict) -> Tracker | plugins.ExternalTracker | None:
+    """The closed loop's tracker by name or plugin reference with its settings (None: the ground_truth oracle, or
+    no tracker). Built before the scene, so a bad name or setting costs no rendering."""
+    if tracker in (plugins.GROUND_TRUTH, plugins.NO_TRACKER):
         if settings:
-            raise ConfigError(f"ground_truth takes no tracker settings, got {sorted(settings)}")
+            raise ConfigError(f"{tracker} takes no tracker settings, got {sorted(settings)}")
         return None
-    return make_tracker(tracker, **settings)
+    if tracker in TRACKER_NAMES:
+        return make_tracker(tracker, **settings)
+    return plugins.build("tracker", tracker, **settings)
 
 
 class ServoLoop:
@@ -208,6 +218,23 @@ class ServoLoop:
             raise ConfigError(f"the closed loop needs mount='arm', got {scenario.mount!r}")
         self.tracker = loop_tracker(tracker, tracker_config)
         self.scenario, self.tracker_name, self.config = scenario, tracker, config
+        self.oracle = tracker == plugins.GROUND_TRUTH
+        # an outside law or policy, built before the scene like the tracker
+        self.law = None if config.controller in CONTROLLERS else plugins.build("controller", config.controller)
+        self.policy = None if config.policy is None else plugins.build("policy", config.policy)
+        self.image_law = config.controller == "dvs" or (self.law is not None and not self.law.uses_features)
+        # what a law's failure may raise and the run records as a fault: the built-ins raise HvsError (PBVS on a
+        # degenerate quad); an outside method anything
+        self._law_errors = Exception if self.law is not None or self.policy is not None else HvsError
+        if self.policy is not None and tracker != plugins.NO_TRACKER:
+            raise ConfigError(f"a policy ({config.policy!r}) replaces tracker and law: give tracker 'none', not "
+                              f"{tracker!r}")
+        if tracker == plugins.NO_TRACKER and self.policy is None and not self.image_law:
+            raise ConfigError(f"tracker 'none' needs a law that reads only the images (dvs, or an outside law with "
+                              f"uses_features = False) or a policy; controller {config.controller!r} needs features")
+        if self.image_law and tracker != plugins.NO_TRACKER:
+            raise ConfigError(f"controller {config.controller!r} reads the images, not tracked features: give tracker "
+                              f"'none', not {tracker!r}")
         self.scene = Scene(scenario)
         self.renderer = Renderer(self.scene)
         self.arm = ArmDriver(self.scene)
@@ -218,27 +245,37 @@ class ServoLoop:
         check_start_in_view(self.scene, self.renderer)
         # the DOFs the features observe: ground truth and a homography tracker give perspective corners
         self.warp = "homography" if self.tracker is None else self.tracker.warp
-        self.dofs = tuple(config.ibvs.dofs or dofs_for(self.warp))
+        declared = (self.policy.dofs if self.policy is not None else self.law.dofs if self.law is not None else None)
+        self.dofs = tuple(config.ibvs.dofs or declared or dofs_for(self.warp))
         tracked_6dof = self.tracker is not None and len(self.dofs) == 6
         damping = config.ibvs.damping
         if damping is None:  # exact features need none; tracked ones on six DOF do (IBVSConfig.damping)
             damping = TRACKED_6DOF_DAMPING if tracked_6dof and config.controller == "ibvs" else 0.0  # PBVS: no L⁺
         self.ibvs_config = dataclasses.replace(config.ibvs, damping=damping)
-        if self.tracker is None:  # exact features: nothing to filter, no template
+        if self.oracle:  # exact features: nothing to filter, no template
             for name, value in (("feature_filter", config.feature_filter), ("goal_frames", config.goal_frames)):
                 if value:
                     raise ConfigError(f"{name} ({value}) applies to a tracker's corners; ground_truth features have "
                                       f"no noise to filter and no template: leave {name} out")
         alpha = config.feature_filter
         self.filter_alpha = (FEATURE_FILTER_ALPHA if tracked_6dof else 0.0) if alpha is None else float(alpha)
-        self.template_from = template_view(config.template_from, tracked_6dof)
+        can_seed = getattr(self.tracker, "can_seed", True)  # an outside tracker without seed(A): its first frame
+        self.template_from = template_view(config.template_from, tracked_6dof and can_seed)
+        if self.tracker is None and not self.oracle:  # a law on the images or a policy: they compare with the goal
+            if config.template_from == "start":
+                raise ConfigError("a photometric law or a policy compares the frames with the goal image: leave "
+                                  "template_from out (or give 'goal')")
+            self.template_from = "goal"
+        if self.template_from == "goal" and not can_seed:
+            raise ConfigError(f"tracker {tracker!r} has no seed(A), so it cannot take its template from the goal image "
+                              "and be placed on the first frame: use template_from='start'")
         if self.template_from == "start" and config.goal_frames is not None:
             raise ConfigError(f"goal_frames ({config.goal_frames}) averages frames into a goal image, but this run's "
                               "template comes from its first frame (template_from='start'): leave goal_frames out, or "
                               "use template_from='goal'")
         if self.template_from == "start":
             self.goal_frames = None
-        elif self.tracker is None:  # the oracle takes only the target's corners from a goal image: one frame
+        elif self.oracle:  # the oracle takes only the target's corners from a goal image: one frame
             self.goal_frames = 1
         else:
             self.goal_frames = config.goal_frames or GOAL_FRAMES
@@ -267,7 +304,7 @@ class ServoLoop:
     def default_inset(self, roi) -> int:
         """LoopConfig.roi_inset_px=None: GOAL_ROI_INSET_PX for a goal template, less where the box would fall
         under MIN_ROI (a target small in the image); 0 for a start template, whose box is thin at large rolls."""
-        if self.template_from == "start" or self.tracker is None:  # the oracle's features need no inset
+        if self.template_from == "start" or self.oracle:  # the oracle's features need no inset
             return 0
         return int(min(GOAL_ROI_INSET_PX, max(0, (min(roi[2], roi[3]) - MIN_ROI) // 2)))
 
@@ -278,6 +315,43 @@ class ServoLoop:
         teacher = Renderer(self.scene, people=False)  # its own sensor state: the episode's frames are unchanged
         with self.scene.posed(self.scene.reference_configuration()):
             return teacher.still_average(self.goal_frames), teacher.ground_truth(occlusion=False).corners
+
+    def _controller(self, desired_px: np.ndarray, goal: np.ndarray | None, roi):
+        """The step-0 law on the desired corners (pinhole pixels): a built-in, or the outside law built at init."""
+        cfg, K = self.config, self.renderer.K
+        if self.law is not None or self.policy is not None:
+            return self.law
+        if cfg.controller == "dvs":
+            from hvs_sim.control.dvs import DVSController
+
+            return DVSController(K, goal, roi, self.desired_depth, self.ibvs_config)
+        law = IBVSController if cfg.controller == "ibvs" else PBVSController
+        return law(K, desired_px, self.desired_depth, self.ibvs_config, self.dofs)
+
+    def _control_input(self, law, features_px, desired_px, true_depths, mode, motion, frame, goal, step) -> ControlInput:
+        """What every law is given at a step (control/protocol.py); the features and s* in the pinhole image."""
+        K = self.renderer.K
+        desired_px = self._pinhole(desired_px)
+        s = (features_px - K[:2, 2]) / np.diag(K)[:2]
+        s_star = (desired_px - K[:2, 2]) / np.diag(K)[:2]
+        depths = true_depths if true_depths is not None else scale_depths(s, s_star, self.desired_depth)
+        return ControlInput(features=s, desired=s_star, depths=depths, desired_depth=self.desired_depth, K=K,
+                            features_px=features_px, desired_px=desired_px, mode=mode, camera_motion=motion,
+                            dt=1.0 / self.scenario.fps, image=frame, goal_image=goal, step=step)
+
+    def _policy_input(self, frame, gt, goal, desired_px, step) -> PolicyInput:
+        return PolicyInput(image=frame, joints=np.asarray(gt.joint_positions, float).copy(), goal_image=goal,
+                           K=self.renderer.K, desired_px=self._pinhole(desired_px), dt=1.0 / self.scenario.fps,
+                           step=step)
+
+    def _bounded(self, twist: np.ndarray, dofs: tuple[str, ...]) -> ControlOutput:
+        """An outside law's or policy's twist in the DOFs it commands, under the loop's per-axis bounds (reported
+        as saturated when they cut it, as for the built-in laws)."""
+        cols = [DOF_NAMES.index(d) for d in dofs]
+        out = np.zeros(6)
+        out[cols] = np.asarray(twist, float)[cols]
+        out, saturated = bound_twist(out, self.ibvs_config.max_linear, self.ibvs_config.max_angular)
+        return ControlOutput(out, np.zeros(0), 0.0, 0.0, saturated, np.zeros(0), tuple(dofs))  # no gain of ours
 
     def __iter__(self) -> Iterator[StepRecord]:
         return self.run()
@@ -323,8 +397,9 @@ class ServoLoop:
 
     def _steps(self, pool: ThreadPoolExecutor | None) -> Iterator[StepRecord]:
         scene, r, cfg = self.scene, self.renderer, self.config
-        flag0 = roi0 = desired = controller = feature_filter = None
+        flag0 = roi0 = desired = controller = feature_filter = goal = None
         inset = 0
+        camera_prev = None
         qdot_prev = np.zeros(len(self.arm.limits.qdot_max))  # pipelined: the command that acts this step
         t_step = time.perf_counter()
         cap = self._capture()
@@ -335,13 +410,15 @@ class ServoLoop:
             if step == 0:
                 # the template's image and the target's corners in it: this first frame, or the goal image
                 template_frame, flag0 = (frame, gt.corners) if self.template_from == "start" else self.goal_image()
+                goal = None if self.template_from == "start" else template_frame
                 roi = roi_from_corners(flag0)
                 inset = self.default_inset(roi) if cfg.roi_inset_px is None else cfg.roi_inset_px
                 roi = inset_roi(roi, inset)
                 roi0 = roi_corners(roi)
                 desired = r.transfer(flag0, self.flag_desired, roi0)
-                law = IBVSController if cfg.controller == "ibvs" else PBVSController
-                controller = law(r.K, self._pinhole(desired), self.desired_depth, self.ibvs_config, self.dofs)
+                controller = self._controller(self._pinhole(desired), goal, roi)
+                if self.policy is not None:
+                    self.policy.reset(self._policy_input(frame, gt, goal, desired, step))
                 feature_filter = (FeatureFilter(r.K, self.filter_alpha, self._pinhole(desired), self.desired_depth)
                                   if self.filter_alpha > 0 else None)
             gt_features = r.transfer(flag0, gt.corners, roi0)
@@ -373,7 +450,7 @@ class ServoLoop:
                     depths_ms = nxt.depths_ms
                     timings.update(nxt.timings, physics=physics_ms)
             try:
-                if self.tracker is None:
+                if self.tracker is None:  # the oracle's features; a law on the images or a policy reads none
                     features, mode = gt_features, "align"
                 else:
                     track = pending.result() if pending is not None else self._track(frame, init_track)
@@ -388,14 +465,26 @@ class ServoLoop:
             ctrl = None
             tracked = features
             control_px = self._pinhole(features) if fault is None else features
+            motion = np.eye(4) if camera_prev is None else np.linalg.solve(camera_prev.matrix(), cap.gt.camera.matrix())
+            camera_prev = cap.gt.camera
             if feature_filter is not None:  # the camera's pose from the joints' forward kinematics, as ArmDriver reads it
                 control_px = feature_filter.update(control_px, cap.gt.camera, usable=fault is None and mode != "lost")
                 if fault is None:
                     features = self._distort(control_px)
             if fault is None:
-                try:  # PBVS cannot take a pose from a degenerate quad: like a tracker fault, stop the arm and record it
-                    ctrl = controller.compute(control_px, cap.depths, mode)
-                except HvsError as exc:
+                # PBVS cannot take a pose from a degenerate quad, an outside law or policy may fail or answer garbage:
+                # like a tracker fault, stop the arm and record it
+                try:
+                    if self.policy is not None:
+                        ctrl = self._bounded(self.policy.act(self._policy_input(frame, gt, goal, desired, step)),
+                                             self.dofs)
+                    else:
+                        inp = self._control_input(controller, control_px, desired, cap.depths, mode, motion, frame,
+                                                  goal, step)
+                        ctrl = controller.compute(inp)
+                        if self.law is not None:  # (twist, dofs): bounded as the built-in laws bound theirs
+                            ctrl = self._bounded(ctrl[0], ctrl[1] or self.dofs)
+                except self._law_errors as exc:
                     fault, mode = f"{type(exc).__name__}: {exc}", "fault"
                     if feature_filter is not None:  # a faulty frame clears the filter, as a tracker fault does
                         feature_filter.reset()
@@ -414,10 +503,12 @@ class ServoLoop:
                 step=step, time=cap.time, frame=frame if cfg.keep_frames else None, track=track, mode=mode,
                 features=features, gt_features=gt_features, desired=desired,
                 error_px=float(np.linalg.norm(gt_features - desired, axis=1).mean()),
-                tracker_error_px=float(np.linalg.norm(tracked - gt_features, axis=1).mean()) if fault is None else float("nan"),
+                tracker_error_px=(float(np.linalg.norm(tracked - gt_features, axis=1).mean())
+                                  if fault is None and (self.tracker is not None or self.oracle) else float("nan")),
                 occlusion=gt.occlusion, twist=twist, qdot=cmd.qdot, q=gt.joint_positions, camera=gt.camera, gain=gain,
                 saturated=sat or cmd.velocity_saturated, limit_blocked=cmd.limit_blocked, fault=fault, timings=timings,
-                pose_error=cap.pose_error, singular_values=sv, dofs=self.dofs, damping=self.ibvs_config.damping,
+                pose_error=cap.pose_error, singular_values=sv,
+                dofs=(ctrl.dofs or self.dofs) if ctrl is not None else self.dofs, damping=self.ibvs_config.damping,
                 feature_filter=self.filter_alpha,
                 filter_restarted=feature_filter is not None and feature_filter.restarted,
                 template=(self.template_from, int(inset), self.goal_frames),

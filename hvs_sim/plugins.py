@@ -167,7 +167,7 @@ def _load_file(path: str) -> object:
     sys.modules[name] = module
     try:
         spec.loader.exec_module(module)
-    except Exception as exc:
+    except Exception as exc:  # noqa: BLE001 - any failure of outside code becomes a ConfigError saying so
         del sys.modules[name]
         raise ConfigError(f"plugin file {path!r} failed to import: {type(exc).__name__}: {exc}") from None
     module.__hvs_plugin_ref__ = f"{p}:"  # + a callable's name: the file's portable reference (_portable_ref)
@@ -185,7 +185,7 @@ def _load_reference(kind: str, ref: str) -> Plugin:
     else:
         try:
             module = importlib.import_module(target)
-        except Exception as exc:  # ImportError, or the module's own import-time error
+        except Exception as exc:  # noqa: BLE001 - ImportError, or the module's own import-time error
             raise ConfigError(f"cannot import module {target!r} for {kind} {ref!r} ({type(exc).__name__}: {exc}); the "
                               "module must be importable by this Python (installed, on PYTHONPATH, or given as a file "
                               "path/to/file.py:callable); on Ray it must be importable on every worker") from None
@@ -218,7 +218,7 @@ def resolve(kind: str, text: str) -> Plugin | None:
         ep = eps[text]
         try:
             factory = ep.load()
-        except Exception as exc:
+        except Exception as exc:  # noqa: BLE001 - any failure of outside code becomes a ConfigError saying so
             raise ConfigError(f"{kind} entry point {text!r} ({ep.value}) failed to load: {type(exc).__name__}: {exc}") \
                 from None
         if not callable(factory):
@@ -254,7 +254,7 @@ def build(kind: str, text: str, **settings):
         obj = plugin.factory(**settings)
     except HvsError:
         raise
-    except Exception as exc:
+    except Exception as exc:  # noqa: BLE001 - any failure of outside code becomes a ConfigError saying so
         raise ConfigError(f"{kind} {text!r}: its factory failed with {type(exc).__name__}: {exc}") from None
     missing = [m for m in INTERFACE[kind] if not callable(getattr(obj, m, None))]
     if missing:
