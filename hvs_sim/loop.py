@@ -541,6 +541,10 @@ class _Capture:
 MODES = ("align", "predict", "lost", "fault")  # a record's mode, in the order its code (index) is plotted and stored
 
 
+REAPPEAR_OCCLUSION, HIDDEN_OCCLUSION = 0.1, 0.5  # the target "reappears" under 10 % hidden after ≥ 50 % hidden
+REACQUIRED_PX = 2.0  # re-acquired: aligned again with the tracked corners this close to the truth
+
+
 class RunStats:
     """A run's summary, accumulated step by step in arrays sized for `config.steps` when the run starts,
     so that memory does not grow with the steps taken (a 100 000-step run keeps no records)."""
@@ -594,6 +598,42 @@ class RunStats:
         return {"time": self.time[:n], "error_px": self.error_px[:n], "tracker_error_px": self.tracker_error_px[:n],
                 "occlusion": self.occlusion[:n], "predict": self.mode[:n] == MODES.index("predict")}
 
+    def _why_not(self, err_px: float, pose: np.ndarray) -> str:
+        """Why the run's end is not within the bounds, bound by bound ("pose error 15.4 mm > 10 mm; image 0.09 px ok")."""
+        c = self.config
+        parts = [f"image {err_px:.2f} px " + ("ok" if err_px < c.converge_px else f"> {c.converge_px:g} px"),
+                 f"pose error {pose[0]:.1f} mm " + ("ok" if pose[0] < c.converge_mm else f"> {c.converge_mm:g} mm"),
+                 f"{pose[1]:.2f}° " + ("ok" if pose[1] < c.converge_deg else f"> {c.converge_deg:g}°")]
+        failing = [p for p in parts if not p.endswith("ok")]
+        if not failing:
+            return f"the bounds were not all met over the last {c.hold_steps} steps"
+        return "; ".join(failing + [p for p in parts if p.endswith("ok")])
+
+
+    def _occlusion_figures(self) -> dict:
+        """What only an occlusion benchmark reports: how long the tracker took to re-acquire after the target
+        reappeared (s; None when it never hid, NaN-free: `reacquired` says whether it did), and how far its estimate
+        drifted while the target was hidden (max tracker error over steps ≥ HIDDEN_OCCLUSION hidden)."""
+        n = self.n
+        occ, terr, mode = self.occlusion[:n], self.tracker_error_px[:n], self.mode[:n]
+        out = {"seconds_to_reacquire": None, "reacquired": None, "max_tracker_error_while_hidden_px": None}
+        if not np.all(np.isfinite(occ)) or not np.isfinite(terr).any():
+            return out
+        hidden = np.flatnonzero(occ >= HIDDEN_OCCLUSION)
+        if not len(hidden):
+            return out
+        drift = terr[hidden]
+        out["max_tracker_error_while_hidden_px"] = float(np.nanmax(drift)) if np.isfinite(drift).any() else None
+        after = np.flatnonzero((np.arange(n) > hidden[-1]) & (occ < REAPPEAR_OCCLUSION))
+        if not len(after):
+            return out
+        back = after[0]
+        ok = np.flatnonzero((np.arange(n) >= back) & (mode == MODES.index("align")) & (terr <= REACQUIRED_PX))
+        out["reacquired"] = bool(len(ok))
+        if len(ok):
+            out["seconds_to_reacquire"] = float(self.time[ok[0]] - self.time[back])
+        return out
+
     def summary(self) -> dict:
         """The run's JSON summary: convergence from ground truth, occlusion behaviour, stage timings.
 
@@ -612,6 +652,7 @@ class RunStats:
             if run >= config.hold_steps:
                 steps_to_converge = i - config.hold_steps + 1
                 break
+        held = bool(n >= config.hold_steps and below[n - config.hold_steps:].all())
         occ = self.occlusion[:n]
         evaluated = bool(np.all(np.isfinite(occ)))
         occluded = occ > 0  # NaN (not evaluated) counts as not occluded; the occlusion figures are then None
@@ -645,6 +686,12 @@ class RunStats:
             "max_condition_number": self.max_condition,
             "min_rank": self.min_rank,
             "converged": steps_to_converge is not None,
+            # the bounds met over the run's last hold_steps steps (`converged`: met for hold_steps steps at some point)
+            "held_to_end": held,
+            "not_converged_because": None if held else self._why_not(err[-1], ctrl_pose[-1]),
+            "initial_pose_error_mm": float(np.linalg.norm(self.first.pose_error[:3])),
+            "initial_pose_error_deg": float(np.linalg.norm(self.first.pose_error[3:])),
+            **self._occlusion_figures(),
             "steps_to_converge": steps_to_converge,
             "seconds_to_converge": None if steps_to_converge is None else float(self.time[steps_to_converge]),
             "final_error_px": float(err[-1]),
