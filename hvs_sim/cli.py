@@ -108,26 +108,34 @@ def cmd_run(args) -> int:
     if args.figures:
         prepare_out_dir(args.figures, "--figures")
     settings = parse_settings(args.set)  # checked where the loop builds its tracker, before the scene
+    if args.tracker is None:  # a policy or a law on the images needs no tracker; the others the default one
+        args.tracker = "none" if args.policy or args.controller == "dvs" else DEFAULT_TRACKER
     if args.warp is not None:
-        if args.tracker == "ground_truth":
-            raise ConfigError("--warp selects a tracker's warp model; ground_truth features are already perspective "
-                              "corners: leave --warp out")
+        if args.tracker in ("ground_truth", "none"):
+            raise ConfigError(f"--warp selects a tracker's warp model; {args.tracker} has none (ground_truth features "
+                              "are already perspective corners): leave --warp out")
         if "warp" in settings and settings["warp"] != args.warp:
             raise ConfigError(f"--warp {args.warp} and --set warp={settings['warp']} disagree: give one")
         settings["warp"] = args.warp
     scenario = _scenario_from_args(args)
     if args.start_offset is not None:
         scenario = dataclasses.replace(scenario, start_offset=parse_start_offset(args.start_offset))
-    config = LoopConfig(steps=args.steps, controller=args.controller, evaluate=not args.no_eval, pipeline=args.pipeline,
+    config = LoopConfig(steps=args.steps, controller=args.controller, policy=args.policy, evaluate=not args.no_eval,
+                        pipeline=args.pipeline,
                         keep_frames=bool(args.rrd or args.spawn or args.figures), template_from=args.template_from,
                         roi_inset_px=args.roi_inset, goal_frames=args.goal_frames,
                         feature_filter=args.feature_filter)
     summary, _ = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,
                              tracker_settings=settings, figures=args.figures)
-    brief = {k: summary[k] for k in ("converged", "steps_to_converge", "final_error_px", "final_pose_error_mm",
-                                     "final_pose_error_deg", "controlled_dofs", "max_error_px_during_occlusion",
-                                     "lost_steps", "predict_steps", "fault_steps", "steps_per_second")}
+    brief = {k: summary[k] for k in ("converged", "held_to_end", "steps_to_converge", "final_error_px",
+                                     "final_pose_error_mm", "final_pose_error_deg", "controlled_dofs",
+                                     "max_error_px_during_occlusion", "lost_steps", "predict_steps", "fault_steps",
+                                     "steps_per_second")}
     print(json.dumps(brief, indent=2))
+    if not summary["held_to_end"]:
+        print(f"not converged at the end: {summary['not_converged_because']}")
+    if summary["faults"]:
+        print(f"{summary['fault_steps']} step(s) faulted, the arm held for them: " + "; ".join(summary["faults"][:3]))
     if args.json:
         print(f"summary: {args.json}")
     if args.figures:
@@ -278,6 +286,21 @@ SCENE_OUTPUTS = ("frames.mp4", "frames/*.png", "ground_truth.csv", "ground_truth
 
 
 def cmd_bench(args) -> int:
+    if args.what == "suites":
+        from hvs_sim.bench.suites import describe
+
+        print(describe(), end="")
+        return 0
+    if args.what == "compare":
+        return cmd_bench_compare(args)
+    if args.paths:
+        raise ConfigError(f"`bench {args.what}` takes no positional folders (got {args.paths}); `bench compare A B` does")
+    if args.suite:
+        _apply_suite(args)
+    elif args.camera is None:
+        from hvs_sim.camera_model import REALISTIC_PRESET
+
+        args.camera = REALISTIC_PRESET
     _check_bench_options(args)
     fresh_out_dir(args.out, args.overwrite, BENCH_OUTPUTS)
     if args.what == "track" and args.imagery == "natural":
@@ -290,6 +313,44 @@ def cmd_bench(args) -> int:
     path.write_text(json.dumps(data, indent=2))
     print(f"results: {args.out}/ (summary.json, table.md, figures)")
     return status
+
+
+def _apply_suite(args) -> None:
+    """--suite NAME: the suite's frozen settings; the user's --methods are run beside its reference methods, and any
+    option that would change the suite's episodes is refused."""
+    from hvs_sim.bench.suites import get_suite
+
+    suite = get_suite(args.suite, args.what)
+    for flag, value in (("--smoke", args.smoke), ("--scenarios", args.scenarios), ("--seeds", args.seeds),
+                        ("--episodes", args.episodes), ("--camera", args.camera), ("--people", args.people),
+                        ("--extra-steps", args.extra_steps), ("--mounts", args.mounts),
+                        ("--imagery natural", args.imagery == "natural")):
+        if value:
+            raise ConfigError(f"{flag} changes what suite {suite.name} fixes (its scenarios, seeds, camera, people "
+                              "and steps): leave it out, or run without --suite")
+    args.methods = list(dict.fromkeys([*suite.methods, *(args.methods or [])]))
+    args.scenarios, args.seeds, args.camera = list(suite.scenarios), list(suite.seeds), suite.camera
+    args.suite_obj = suite
+    if suite.kind == "track":
+        args.mounts = list(suite.mounts)
+
+
+def cmd_bench_compare(args) -> int:
+    from hvs_sim.bench.compare import compare, compare_figure, compare_table
+    from hvs_sim.outputs import write_atomic
+
+    if len(args.paths) != 2:
+        raise ConfigError(f"`bench compare` takes two result folders A B, got {len(args.paths)}: hvs-sim bench compare "
+                          "out/mine experiments/results/occlusion-v1")
+    out = fresh_out_dir(args.out, args.overwrite, ("compare.json", "compare.md", "compare.png"))
+    result = compare(*args.paths)
+    table = compare_table(result)
+    write_atomic(out / "compare.json", json.dumps(result, indent=2))
+    write_atomic(out / "compare.md", table)
+    compare_figure(result, out / "compare.png")
+    print(table, end="")
+    print(f"results: {out}/ (compare.json, compare.md, compare.png)")
+    return 0
 
 
 SMOKE_NOTE = "SMOKE RUN: checks that the pipeline runs end to end; the figures it prints are NOT a result"
@@ -337,12 +398,23 @@ def _cmd_bench_sim(args) -> int:
                            ("extra_steps", "extra_steps")):  # servo-only settings the user gave
             if getattr(args, opt) is not None:
                 given[field] = getattr(args, opt)
+        suite = getattr(args, "suite_obj", None)
+        if suite is not None:
+            given.update(extra_steps=suite.extra_steps, width=suite.width, height=suite.height,
+                         tilt_deg=0.0 if suite.start == "4dof" else 15.0, success_px=suite.success_px, suite=suite.name)
+            del given["scenarios"], given["seeds"]
+            given.update(scenarios=suite.scenarios, seeds=suite.seeds)
         cfg = ServoBenchConfig(workers=args.workers, camera=args.camera, people=args.people,
                                steps=30 if args.smoke else None, **given)
         summary = run_servo_bench(cfg, Path(args.out))
         for s, per in summary["results"].items():
             for t, r in per.items():
-                print(f"{s:8s} {t:18s} success {100 * r['success_rate']:5.1f}%  median final {r['median_final_error_px']:.2f} px")
+                ok, reached = r["success"]["hvs_sim"], r["reached"]
+                lo, hi = ok["ci95"]
+                print(f"{s:8s} {t:24s} success {100 * ok['rate']:5.1f}% (95% CI {100 * lo:.0f}-{100 * hi:.0f}), "
+                      f"reached {100 * reached['rate']:.0f}%, CNS {100 * r['success']['cns']['rate']:.0f}%, Felton "
+                      f"{100 * r['success']['felton']['rate']:.0f}%, ViSP {100 * r['success']['visp']['rate']:.0f}%; "
+                      f"median final {r['median_final_error_px']:.2f} px, {r['median_final_pose_error_mm']:.1f} mm")
     if args.smoke:
         print(SMOKE_NOTE)
     return 0
@@ -439,10 +511,12 @@ def build_parser() -> argparse.ArgumentParser:
     _add_scene_args(p, mount=False)
     from hvs_sim.tracking import TRACKER_NAMES
 
-    loop_trackers = ("ground_truth", *TRACKER_NAMES)  # as hvs_sim.loop.LOOP_TRACKERS, without importing MuJoCo for --help
-    p.add_argument("--tracker", default=DEFAULT_TRACKER, choices=loop_trackers, metavar="NAME",
-                   help=f"one of: {', '.join(loop_trackers)} (default {DEFAULT_TRACKER}; the hybrid_* names are "
-                        "its ablations, see hvs_sim/tracking/registry.py)")
+    loop_trackers = ("ground_truth", "none", *TRACKER_NAMES)  # hvs_sim.loop.LOOP_TRACKERS, without importing MuJoCo
+    p.add_argument("--tracker", default=None, metavar="NAME",
+                   help=f"one of: {', '.join(loop_trackers)}, or an outside tracker: a registered or entry-point name, "
+                        f"package.module:callable or path/to/file.py:callable (default {DEFAULT_TRACKER}; none with "
+                        "--policy or --controller dvs; the hybrid_* names are its ablations, "
+                        "hvs_sim/tracking/registry.py)")
     p.add_argument("--steps", type=int, default=240, help="control steps at 30 Hz")
     from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
     from hvs_sim.control.ibvs import CONTROLLERS, GOAL_FRAMES, TEMPLATE_VIEWS, TRACKED_6DOF_DAMPING
@@ -451,7 +525,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--warp", default=None, choices=WARPS,
                    help="the tracker's warp model (default: the tracker's, similarity); homography gives perspective "
                         "corners, and the controller then commands all six DOF")
-    p.add_argument("--controller", default="ibvs", choices=CONTROLLERS, help="the servo law")
+    p.add_argument("--controller", default="ibvs", metavar="LAW",
+                   help=f"the servo law: {', '.join(CONTROLLERS)} (dvs: photometric, no tracker), or an outside law "
+                        "(a registered or entry-point name, package.module:callable, path/to/file.py:callable)")
+    p.add_argument("--policy", default=None, metavar="NAME",
+                   help="an outside policy (image + joints → camera twist) in place of tracker and law: a registered "
+                        "or entry-point name, package.module:callable or path/to/file.py:callable")
     p.add_argument("--template-from", default=None, choices=TEMPLATE_VIEWS,
                    help="where the tracker's template comes from: the run's first frame, or the goal image (the camera "
                         "at the reference pose, people left out: teach-by-showing), the tracker then seeded at the "
@@ -503,7 +582,13 @@ def build_parser() -> argparse.ArgumentParser:
     from hvs_sim.scene.scenarios import PEOPLE_STYLES
 
     p = sub.add_parser("bench", formatter_class=HelpFormatter, help="benchmarks: tracking accuracy (track) or closed-loop convergence (servo)")
-    p.add_argument("what", choices=("track", "servo"))
+    p.add_argument("what", choices=("track", "servo", "suites", "compare"),
+                   help="track | servo: run a benchmark; suites: list the versioned suites; compare A B: two servo "
+                        "results of one suite, episode by episode")
+    p.add_argument("paths", nargs="*", metavar="FOLDER", help="compare: the two result folders A B")
+    p.add_argument("--suite", default=None, metavar="NAME",
+                   help="a versioned suite (hvs-sim bench suites): its frozen scenarios, seeds, camera and rules, "
+                        "with the methods you name run beside its reference methods; quick: a look in ~2 minutes")
     p.add_argument("--out", default=None, help="output folder (default: out/bench_<what>)")
     p.add_argument("--smoke", action="store_true", help="a tiny version that runs in about a minute (not a result)")
     p.add_argument("--overwrite", action="store_true",
@@ -513,8 +598,11 @@ def build_parser() -> argparse.ArgumentParser:
     from hvs_sim.tracking import TRACKER_NAMES
 
     p.add_argument("--methods", nargs="+", default=None, metavar="NAME",
-                   help=f"trackers to compare: {', '.join(TRACKER_NAMES)}; servo also ground_truth (the hybrid_* are "
-                        "ablations, see hvs_sim/tracking/registry.py; default: the benchmark's set)")
+                   help=f"trackers to compare: {', '.join(TRACKER_NAMES)}, or outside trackers (module:callable, "
+                        "file.py:callable, registered or entry-point names); servo: TRACKER[:WARP][/CONTROLLER] or "
+                        "policy=NAME, with ground_truth, none/dvs, and outside references in braces: "
+                        "{mypkg.track:make}:homography/{mypkg.law:make} (the hybrid_* are ablations, see "
+                        "hvs_sim/tracking/registry.py; default: the benchmark's set)")
     p.add_argument("--damping", type=float, default=None,
                    help=f"servo only: damped pseudo-inverse, μ = damping × σ_max(L) (IBVSConfig.damping; default: {TRACKED_6DOF_DAMPING} for "
                         "tracked features on six DOF, else 0)")
@@ -547,7 +635,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="sequence seeds (track; default 100 101 102, natural 500 501) or episode seeds (servo)")
     p.add_argument("--episodes", type=int, default=None,
                    help="servo only: episodes per scenario and tracker, seeds 200, 201, … (default 10)")
-    p.add_argument("--camera", default=REALISTIC_PRESET, choices=SENSOR_NAMES,
+    p.add_argument("--camera", default=None, choices=SENSOR_NAMES,
                    help=f"camera model of every sequence/episode (default {REALISTIC_PRESET}; ideal = clean renders)")
     p.add_argument("--people", default=None, choices=PEOPLE_STYLES,
                    help="sim imagery: how the people look (default textured; plain = the flat figures of earlier "

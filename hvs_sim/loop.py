@@ -596,7 +596,8 @@ class RunStats:
         """Per-step time, errors, occlusion and mode of the steps so far (for figures)."""
         n = self.n
         return {"time": self.time[:n], "error_px": self.error_px[:n], "tracker_error_px": self.tracker_error_px[:n],
-                "occlusion": self.occlusion[:n], "predict": self.mode[:n] == MODES.index("predict")}
+                "occlusion": self.occlusion[:n], "predict": self.mode[:n] == MODES.index("predict"),
+                "pose_mm": self.controlled[:n, 0], "pose_deg": self.controlled[:n, 1]}
 
     def _why_not(self, err_px: float, pose: np.ndarray) -> str:
         """Why the run's end is not within the bounds, bound by bound ("pose error 15.4 mm > 10 mm; image 0.09 px ok")."""

@@ -54,3 +54,17 @@ def fresh_out_dir(out, overwrite: bool, outputs: tuple[str, ...], flag: str = "-
                 if p.is_file():
                     p.unlink()
     return out
+
+
+def write_atomic(path, text: str) -> None:
+    """Write through a temporary file in the same folder (named by this process), then rename: a reader never sees
+    half a file, and an interrupted write leaves the old one."""
+    import os
+
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)

@@ -392,3 +392,25 @@ class ExternalPolicy:
         from hvs_sim.control.protocol import check_twist
 
         return check_twist(self.inner.act(obs), f"policy {self.name!r}")
+
+
+# ------------------------------------------------------------------------ trackers by any spelling
+
+
+def make_any_tracker(text: str, **settings):
+    """A fresh tracker from a registry name (tracking/registry.py) or an outside tracker (this module's spellings)."""
+    from hvs_sim.tracking import TRACKER_NAMES, make_tracker
+
+    if text in TRACKER_NAMES:
+        return make_tracker(text, **settings)
+    return build("tracker", text, **settings)
+
+
+def check_any_tracker(text: str) -> str:
+    """`text` when it names a registry tracker or an outside one (not ground_truth or none); ConfigError otherwise."""
+    from hvs_sim.tracking import TRACKER_NAMES
+
+    if text in (GROUND_TRUTH, NO_TRACKER) or (text not in TRACKER_NAMES and resolve("tracker", text) is None):
+        raise ConfigError(f"{text!r} is not a tracker of footage; accepted: {', '.join(TRACKER_NAMES)}, or an outside "
+                          "tracker (a registered or entry-point name, module:callable, path/to/file.py:callable)")
+    return text

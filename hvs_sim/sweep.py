@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from hvs_sim.bench.servo import EXTRA_STEPS, SUCCESS_PX
+from hvs_sim.bench.stats import episode_success
 from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.validate import check_number
 
@@ -109,6 +110,10 @@ def _check_value(kind: str, key: str, value, accepted) -> None:
             (IBVSConfig if accepted == "ibvs-field" else LoopConfig)(**{key: tuple(value) if isinstance(value, list) else value})
         except TypeError as exc:
             raise ConfigError(f"{key}: {exc}") from None
+    elif key == "tracker" and value not in accepted:  # an outside tracker (hvs_sim.plugins)
+        from hvs_sim.plugins import check, check_any_tracker
+
+        check_any_tracker(value) if kind == "track" else check("tracker", value)
     elif value not in accepted:
         raise choice_error(key, value, accepted)
 
@@ -203,10 +208,14 @@ def _servo_task(params: dict) -> dict:
     steps = params.get("steps") or scen.n_frames + EXTRA_STEPS
     summary, _ = run_episode(scen, params["tracker"], LoopConfig(steps=steps, ibvs=ibvs, keep_frames=False, **loop),
                              progress=False)
-    keys = ("converged", "steps_to_converge", "seconds_to_converge", "final_error_px", "max_error_px_during_occlusion",
-            "lost_steps", "predict_steps", "fault_steps", "steps_per_second")
+    keys = ("converged", "held_to_end", "steps_to_converge", "seconds_to_converge", "final_error_px",
+            "final_pose_error_mm", "final_pose_error_deg", "max_error_px_during_occlusion", "lost_steps",
+            "predict_steps", "fault_steps", "steps_per_second")
     out = {k: summary.get(k) for k in keys}
-    out["success"] = bool(summary["converged"] and summary["final_error_px"] <= SUCCESS_PX)
+    # the servo benchmark's rules (bench/stats.py): hvs_sim's is `success`
+    verdicts = episode_success(summary, SUCCESS_PX)
+    out["success"] = verdicts.pop("hvs_sim")
+    out.update({f"success_{rule}": v for rule, v in verdicts.items()})
     return out
 
 
@@ -215,12 +224,13 @@ def run_task(job: tuple[str, str, dict]) -> dict:
     same numbers on any engine and any number of workers."""
     import torch
 
-    kind, tid, params = job
+    kind, tid, params, *run_as = job  # run_as: the parameters with methods spelled for this process (_portable)
     torch.set_num_threads(1)
     t0 = time.perf_counter()
     record = {"id": tid, "kind": kind, "params": params}
     try:
-        record.update(status="ok", metrics=(_track_task if kind == "track" else _servo_task)(params))
+        record.update(status="ok", metrics=(_track_task if kind == "track" else _servo_task)(run_as[0] if run_as
+                                                                                            else params))
     except Exception as exc:  # noqa: BLE001 - a failing task is recorded and the sweep goes on
         record.update(status="error", error=f"{type(exc).__name__}: {exc}")
     record["task_seconds"] = round(time.perf_counter() - t0, 3)
@@ -228,6 +238,18 @@ def run_task(job: tuple[str, str, dict]) -> dict:
 
 
 # ------------------------------------------------------------------------------------ engines
+
+
+def _portable(params: dict) -> dict:
+    """A task's parameters with its methods spelled so that a worker process resolves them (plugins.portable): a
+    name registered in this process travels as its module:callable, or the sweep is refused before it starts."""
+    from hvs_sim.plugins import portable
+
+    out = dict(params)
+    for key in ("tracker", "controller", "policy"):
+        if out.get(key) is not None:
+            out[key] = portable(key, out[key])
+    return out
 
 
 def _write_atomic(path: Path, data: dict) -> None:
@@ -292,7 +314,8 @@ def run_sweep(spec: SweepSpec, out, engine: str = "local", workers: int = 1, add
     tasks_dir = out / "tasks"
     tasks_dir.mkdir(exist_ok=True)
     (out / "spec.json").write_text(json.dumps(dataclasses.asdict(spec), indent=2))
-    jobs = [(spec.kind, task_id(spec.kind, p), p) for p in spec.tasks()]
+    remote = engine == "ray" or workers > 1
+    jobs = [(spec.kind, task_id(spec.kind, p), p, _portable(p) if remote else p) for p in spec.tasks()]
     pending = [j for j in jobs if not (tasks_dir / f"{j[1]}.json").exists()]
     counts = {"tasks": len(jobs), "skipped_done": len(jobs) - len(pending), "ran": 0, "errors": 0}
 

@@ -46,9 +46,10 @@ import numpy as np
 from tqdm import tqdm
 
 from hvs_sim.cli import DEFAULT_TRACKER, add_settings_option, parse_settings
-from hvs_sim.errors import ConfigError, InputError, choice_error
+from hvs_sim.errors import ConfigError, InputError
 from hvs_sim.outputs import check_output_file, prepare_out_dir
-from hvs_sim.tracking import TRACKER_NAMES, Track, make_tracker
+from hvs_sim.plugins import make_any_tracker
+from hvs_sim.tracking import TRACKER_NAMES, Track
 from hvs_sim.tracking.frames import MIN_ROI, check_roi
 
 log = logging.getLogger(__name__)
@@ -84,9 +85,10 @@ def parse_roi(text: str) -> tuple[int, int, int, int]:
 
 
 def check_tracker_name(name: str) -> str:
-    if name not in TRACKER_NAMES:
-        raise choice_error("tracker", name, TRACKER_NAMES)
-    return name
+    """A tracker of the registry or an outside one (hvs_sim.plugins); ConfigError naming what is accepted."""
+    from hvs_sim.plugins import check_any_tracker
+
+    return check_any_tracker(name)
 
 
 @dataclass
@@ -340,7 +342,7 @@ def track_footage(path, roi, tracker: str = DEFAULT_TRACKER, out="out/track", rr
     try:
         roi = check_roi(roi, source.first.shape[:2])
         out, rrd = prepare_out_dir(out), prepare_rrd(rrd)
-        method = make_tracker(tracker, **(settings or {}))
+        method = make_any_tracker(tracker, **(settings or {}))
         outputs = TrackOutputs(out, source.size, source.fps, rrd)
         result = TrackResult(tracker, outputs.paths)
         bar = tqdm(total=source.count, unit="frame", desc=f"track/{tracker}", disable=not progress)
@@ -390,7 +392,8 @@ def add_track_parser(sub) -> None:
     p.add_argument("--roi", required=True, metavar="x,y,w,h", help="the target in the first frame, integers: covers "
                    f"pixels x..x+w-1, y..y+h-1, centre (x + (w-1)/2, y + (h-1)/2); at least {MIN_ROI}×{MIN_ROI}")
     p.add_argument("--tracker", default=DEFAULT_TRACKER, metavar="NAME",
-                   help=f"one of: {', '.join(TRACKER_NAMES)} (default {DEFAULT_TRACKER})")
+                   help=f"one of: {', '.join(TRACKER_NAMES)} (default {DEFAULT_TRACKER}); or an outside tracker: a "
+                        "registered or entry-point name, package.module:callable or path/to/file.py:callable")
     p.add_argument("--out", default="out/track", metavar="DIR",
                    help="folder for track.csv and annotated.mp4, created when missing (default out/track)")
     p.add_argument("--rrd", default=None, metavar="FILE", help="also save a rerun recording here")

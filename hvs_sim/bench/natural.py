@@ -946,7 +946,7 @@ def natural_figures(results: dict, metas: dict, config: NaturalBenchConfig, out:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from hvs_sim.viz.figures import COLORS
+    from hvs_sim.viz.figures import method_colour
 
     panels = [("all frames", list(results), None)] + [(k, [q for q in results if q[1] == k], None) for k in config.kinds]
     panels.append((f"occlusion < {VISIBLE_BELOW:.0%}", list(results), VISIBLE_BELOW))
@@ -958,7 +958,7 @@ def natural_figures(results: dict, metas: dict, config: NaturalBenchConfig, out:
             err = np.concatenate(errs) if errs else np.array([])
             if err.size:
                 xs = np.sort(err)
-                ax.plot(np.maximum(xs, 1e-3), np.arange(1, xs.size + 1) / xs.size, label=m, color=COLORS.get(m))
+                ax.plot(np.maximum(xs, 1e-3), np.arange(1, xs.size + 1) / xs.size, label=m, color=method_colour(m))
         ax.axvline(2.0, ls="--", color="k", lw=0.8)
         ax.set_xscale("log")
         ax.set_xlim(1e-2, 1e3)

@@ -19,7 +19,6 @@ from hvs_sim.bench.pool import collect_jobs, config_json, write_frames_csv
 from hvs_sim.bench.sequences import Sequence, make_sequence
 from hvs_sim.camera_model import REALISTIC_PRESET
 from hvs_sim.errors import ConfigError, choice_error
-from hvs_sim.tracking import make_tracker
 from hvs_sim.validate import check_number
 
 # the methods and the hybrid's ablations a default run compares (any name of tracking/registry.py is accepted)
@@ -32,8 +31,11 @@ TARGET_SET = (("walk_by", "pause", "partial"), "handheld")
 
 
 def tracker_for(method: str):
-    """A fresh tracker for a benchmark method: any name of the tracker registry (tracking/registry.py)."""
-    return make_tracker(method)
+    """A fresh tracker for a benchmark method: a name of the tracker registry (tracking/registry.py) or an outside
+    tracker (hvs_sim.plugins)."""
+    from hvs_sim.plugins import make_any_tracker
+
+    return make_any_tracker(method)
 
 
 def run_tracker(method: str, seq: Sequence) -> dict[str, np.ndarray]:
@@ -87,10 +89,14 @@ class TrackBenchConfig:
 
     def __post_init__(self):
         from hvs_sim.camera_model import sensor_preset
+        from hvs_sim.plugins import check_any_tracker
         from hvs_sim.scene.scenarios import MOUNTS, PEOPLE_STYLES, SCENARIO_NAMES
-        from hvs_sim.tracking import TRACKER_NAMES
 
-        for what, values, accepted in (("tracker", self.methods, TRACKER_NAMES), ("scenario", self.scenarios, SCENARIO_NAMES),
+        if not self.methods:
+            raise ConfigError("the tracking benchmark needs at least one tracker")
+        for m in self.methods:
+            check_any_tracker(m)
+        for what, values, accepted in (("scenario", self.scenarios, SCENARIO_NAMES),
                                        ("mount", self.mounts, MOUNTS), ("people style", (self.people,), PEOPLE_STYLES)):
             if not values:
                 raise ConfigError(f"the tracking benchmark needs at least one {what}; accepted: {', '.join(accepted)}")
@@ -120,9 +126,14 @@ def _job(args):
 def run_track_bench(config: TrackBenchConfig, out: Path, progress: bool = True) -> dict:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    jobs = [(s, m, seed, config.frames, config.methods, config.camera, config.people) for s in config.scenarios for m in config.mounts for seed in config.seeds]
+    from hvs_sim.plugins import portable
+
+    # workers resolve each tracker again: a name registered in this process travels as its module:callable
+    run_as = tuple(portable("tracker", m) if config.workers > 1 else m for m in config.methods)
+    jobs = [(s, m, seed, config.frames, run_as, config.camera, config.people) for s in config.scenarios for m in config.mounts for seed in config.seeds]
     os.environ["HVS_WORKERS"] = str(config.workers)
-    results = dict(collect_jobs(_job, jobs, config, out, "bench track", "seq", progress))
+    results = {k: dict(zip(config.methods, per.values(), strict=True))
+               for k, per in collect_jobs(_job, jobs, config, out, "bench track", "seq", progress)}
     summary = {"config": config_json(config),
                "per_scenario": {}, "occlusion_scenarios": {}, "target_set": {}, "overall": {}}
     for m in config.methods:

@@ -14,6 +14,25 @@ from hvs_sim.tracking.registry import TRACKERS
 
 # one colour per tracker name, from the registry (distinct across methods and variants)
 COLORS = {"ground_truth": "black", **{name: spec.colour for name, spec in TRACKERS.items()}}
+# the servo benchmark's built-in method specs beyond the registry's names (TRACKER[:WARP][/CONTROLLER])
+METHOD_COLORS = {"ground_truth/pbvs": "#636363", "hybrid:homography": "#8c0a0a", "hybrid:homography/pbvs": "#fd8d3c",
+                 "none/dvs": "#31a354", "hybrid/pbvs": "#e6550d"}
+# colours for any other spec (outside methods): picked by a stable hash of the spec, none of them the registry's
+SPARE_COLORS = ("#393b79", "#637939", "#8c6d31", "#843c39", "#7b4173", "#3182bd", "#756bb1", "#636363",
+                "#e7ba52", "#ad494a", "#a55194", "#6baed6", "#9e9ac8", "#74c476", "#fdae6b", "#969696")
+
+
+def method_colour(spec: str) -> str:
+    """One stable colour per method spec, in every figure: the registry's for its names, fixed ones for the servo
+    benchmark's built-in specs, and for any other spec (a plugin) one picked by a hash of its text (the same in every
+    run and process)."""
+    import hashlib
+
+    if spec in COLORS:
+        return COLORS[spec]
+    if spec in METHOD_COLORS:
+        return METHOD_COLORS[spec]
+    return SPARE_COLORS[int(hashlib.sha1(spec.encode()).hexdigest(), 16) % len(SPARE_COLORS)]
 
 
 def track_triads(results: dict, config, out: Path) -> list[Path]:
@@ -28,7 +47,7 @@ def track_triads(results: dict, config, out: Path) -> list[Path]:
         for m in config.methods:
             err = np.concatenate([results[k][m]["error"][1:] for k in keys])
             occ = np.concatenate([results[k][m]["occlusion"][1:] for k in keys])
-            c = COLORS.get(m)
+            c = method_colour(m)
             xs = np.sort(err)
             ax[0].plot(np.maximum(xs, 1e-3), np.arange(1, len(xs) + 1) / len(xs), label=m, color=c)
             r = results[first][m]
@@ -77,7 +96,7 @@ def servo_figure(episodes: dict, out: Path, title: str) -> Path:
     fig, ax = plt.subplots(1, 4, figsize=(21, 4.6))
     for t in trackers:
         rec = episodes[t]
-        c = COLORS.get(t)
+        c = method_colour(t)
         time = np.array([r["time"] for r in rec])
         ax[0].plot(time, np.maximum([r["error_px"] for r in rec], 1e-3), label=t, color=c)
         corners = np.array([r["gt_features"] for r in rec])
@@ -158,7 +177,7 @@ def run_figures(picks: list, series: dict, summary: dict, out: Path, converge_px
     frames = out / "frames.png"
     cv2.imwrite(str(frames), np.vstack([np.hstack(tiles[:2]), np.hstack(tiles[2:])]))
     t, occ = series["time"], np.nan_to_num(series["occlusion"])
-    fig, ax = plt.subplots(figsize=(9, 3.6))
+    fig, (ax, pax) = plt.subplots(2, 1, figsize=(9, 6.4), sharex=True, height_ratios=(3, 2))
     ax.semilogy(t, np.maximum(series["error_px"], 1e-3), color="tab:red", label="ground-truth error to s* (px)")
     ax.semilogy(t, np.maximum(series["tracker_error_px"], 1e-3), color="tab:green", label="tracker corner error (px)")
     ax.axhline(converge_px, ls="--", color="k", lw=0.8, label=f"converged below {converge_px:g} px")
@@ -170,12 +189,21 @@ def run_figures(picks: list, series: dict, summary: dict, out: Path, converge_px
     tw.set_ylabel("true occlusion (%)")
     tw.set_ylim(0, 100)
     ax.set_ylim(1e-2, 1e2)
-    ax.set_xlabel("time (s)")
+    pose = summary.get("pose_bound")
+    if pose and "pose_mm" in series:  # the pose error in the controlled DOFs against its bound
+        pax.semilogy(t, np.maximum(series["pose_mm"], 1e-3), color="tab:purple", label="pose error (mm)")
+        pax.semilogy(t, np.maximum(series["pose_deg"], 1e-4), color="tab:orange", label="pose error (°)")
+        pax.axhline(pose["mm"], ls="--", color="tab:purple", lw=0.8, label=f"bound {pose['mm']:g} mm")
+        pax.axhline(pose["deg"], ls=":", color="tab:orange", lw=0.8, label=f"bound {pose['deg']:g}°")
+        pax.set_ylabel(f"pose error in {len(pose['applies_to'])} DOFs")
+        pax.legend(fontsize=8, loc="upper right", ncol=2)
+    pax.set_xlabel("time (s)")
     handles = ax.get_legend_handles_labels()
     extra = tw.get_legend_handles_labels()
     ax.legend(handles[0] + extra[0], handles[1] + extra[1], fontsize=8, loc="upper right")
     ax.set_title(f"{summary['scenario']} / {summary['tracker']}: final error {summary['final_error_px']:.2f} px, "
-                 f"{'converged' if summary['converged'] else 'not converged'}")
+                 f"{'converged' if summary.get('held_to_end', summary['converged']) else 'not converged'}"
+                 + ("" if summary.get("held_to_end", True) else f" ({summary['not_converged_because']})"), fontsize=9)
     fig.tight_layout()
     error = out / "error.png"
     fig.savefig(error, dpi=100)
