@@ -39,7 +39,7 @@ import numpy as np
 from hvs_sim.errors import ConfigError, HvsError
 
 KINDS = ("tracker", "controller", "policy")
-GROUPS = {kind: f"hvs_sim.{kind}s" for kind in KINDS}  # entry-point groups
+GROUPS = {"tracker": "hvs_sim.trackers", "controller": "hvs_sim.controllers", "policy": "hvs_sim.policies"}  # entry points
 GROUND_TRUTH = "ground_truth"  # the oracle: the loop's features from the simulator
 NO_TRACKER = "none"  # no tracker: for laws that read only the images (dvs) and for policies
 # what a plugin object must have, by kind

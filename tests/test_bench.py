@@ -43,7 +43,7 @@ def test_cli_reports_bad_input_as_an_error_not_a_traceback(capsys):
     assert main(["run", "--scenario", "nope", "--steps", "2"]) == 2
     assert "accepted" in capsys.readouterr().err
     assert main(["run", "--scenario", "clear", "--tracker", "kcf", "--steps", "2"]) == 2
-    assert "invalid choice: 'kcf'" in capsys.readouterr().err
+    assert "unknown tracker 'kcf'; accepted: ground_truth, none, hybrid" in capsys.readouterr().err
     assert main(["run", "--scenario", "clear", "--steps", "0"]) == 2
     assert main(["bench", "track", "--smoke", "--workers", "0"]) == 2
 

@@ -88,7 +88,10 @@ class ServoBenchConfig:
                     raise choice_error(what, v, accepted)
         for m in self.trackers:  # e.g. a residual tracker with a homography: refused here, not in a worker
             tracker, warp, _, _ = parse_method(m)
-            if warp and tracker in TRACKER_NAMES:
+            if warp and tracker not in TRACKER_NAMES:
+                raise ConfigError(f"servo method {m!r}: an outside tracker declares its warp itself (its `warp` "
+                                  f"attribute); leave :{warp} out")
+            if warp:
                 try:
                     check_tracker(tracker, warp=warp)
                 except ConfigError as exc:

@@ -1,0 +1,150 @@
+"""The open benchmark's parts: success rules, intervals, paired tests, suites, method specs, `bench compare`."""
+
+import json
+
+import numpy as np
+import pytest
+
+from hvs_sim.bench.compare import compare
+from hvs_sim.bench.servo import episode_offset, parse_method, portable_method
+from hvs_sim.bench.stats import episode_success, mcnemar, median_ci, rate, wilcoxon, wilson
+from hvs_sim.bench.suites import SUITES, describe, get_suite
+from hvs_sim.cli import main
+from hvs_sim.errors import ConfigError
+from hvs_sim.viz.figures import method_colour
+
+
+def _episode(t, r, t0=80.0, r0=10.0, held=True, px=0.1, converged=True):
+    return {"final_pose_error_mm": t, "final_pose_error_deg": r, "initial_pose_error_mm": t0,
+            "initial_pose_error_deg": r0, "held_to_end": held, "final_error_px": px, "converged": converged}
+
+
+@pytest.mark.parametrize("ep, expected", [
+    (_episode(0.4, 0.3), {"hvs_sim": True, "cns": True, "felton": True, "visp": True}),
+    (_episode(7.0, 0.6), {"hvs_sim": True, "cns": True, "felton": True, "visp": False}),
+    (_episode(9.0, 1.2, t0=200.0, r0=20.0), {"hvs_sim": True, "cns": True, "felton": True, "visp": False}),
+    (_episode(15.0, 2.0, t0=80.0, r0=12.0), {"hvs_sim": True, "cns": False, "felton": False, "visp": False}),
+    (_episode(0.3, 0.2, held=False), {"hvs_sim": False, "cns": True, "felton": True, "visp": True}),
+    (_episode(0.3, 0.2, px=1.5), {"hvs_sim": False, "cns": True, "felton": True, "visp": True}),
+])
+def test_the_four_success_rules(ep, expected):
+    assert episode_success(ep, 1.0) == expected
+
+
+def test_wilson_interval_and_rates():
+    lo, hi = wilson(0, 20)
+    assert lo == 0.0 and hi == pytest.approx(0.1611, abs=1e-4)  # the textbook value for 0 of 20
+    lo, hi = wilson(19, 20)
+    assert lo == pytest.approx(0.7639, abs=1e-4) and hi == pytest.approx(0.9911, abs=1e-4)
+    r = rate([True] * 19 + [False])
+    assert r["rate"] == 0.95 and r["n"] == 20 and r["ci95"][0] < 0.95 < r["ci95"][1]
+
+
+def test_median_interval_is_seeded_and_covers_the_median():
+    v = np.random.default_rng(1).lognormal(1, 0.5, 40)
+    a, b = median_ci(v), median_ci(v)
+    assert a == b and a["ci95"][0] <= a["median"] <= a["ci95"][1]
+    assert median_ci([None, None])["median"] is None
+
+
+def test_paired_tests():
+    a = [True] * 10 + [False] * 10
+    b = [True] * 2 + [False] * 18
+    m = mcnemar(a, b)
+    assert (m["only_a"], m["only_b"]) == (8, 0) and m["p_value"] == pytest.approx(2 * 0.5 ** 8)
+    assert mcnemar(a, a)["p_value"] == 1.0
+    w = wilcoxon(np.arange(1, 11) + 5.0, np.arange(1, 11))
+    assert w["median_difference"] == 5.0 and w["p_value"] < 0.01
+    assert wilcoxon([1, 2], [1, 2])["p_value"] == 1.0
+
+
+@pytest.mark.parametrize("spec, parsed", [
+    ("hybrid", ("hybrid", None, "ibvs", None)),
+    ("hybrid:homography/pbvs", ("hybrid", "homography", "pbvs", None)),
+    ("none/dvs", ("none", None, "dvs", None)),
+    ("{pkg.track:make}:homography/{pkg.law:make}", ("pkg.track:make", "homography", "pkg.law:make", None)),
+    ("{pkg.track:make}/{pkg.law:make}", ("pkg.track:make", None, "pkg.law:make", None)),
+    ("{path/to/t.py:make}", ("path/to/t.py:make", None, "ibvs", None)),
+    ("policy={pkg.net:make}", ("none", None, "ibvs", "pkg.net:make")),
+    ("policy=mine", ("none", None, "ibvs", "mine")),
+])
+def test_method_specs(spec, parsed):
+    assert parse_method(spec) == parsed
+
+
+@pytest.mark.parametrize("bad", ["pkg.track:make", "hybrid:affine", "ground_truth:homography", "{x", "policy=", ""])
+def test_bad_method_specs(bad):
+    with pytest.raises(ConfigError):
+        parse_method(bad)
+
+
+def test_portable_method_spells_references_for_workers():
+    assert portable_method("hybrid:homography/pbvs") == "hybrid:homography/pbvs"
+    assert portable_method("klt_homography:homography/plain_ibvs") == "klt_homography:homography/plain_ibvs"
+    assert portable_method("{hvs_test_plugins.track:make}") == "{hvs_test_plugins.track:make}/ibvs"
+
+
+def test_four_dof_starts_draw_no_tilt_and_six_dof_draws_are_unchanged():
+    six = episode_offset(200, 0.8, 0)
+    four = episode_offset(200, 0.8, 0, tilt=0.0)
+    assert four[4] == four[5] == 0.0 and four[:4] == six[:4]
+    rng = np.random.default_rng([200, 11, 0])  # the draw the committed results used
+    lo = [-0.1, -0.1, (1 - 1.4) * 0.8, -np.radians(60), -np.radians(15), -np.radians(15)]
+    hi = [0.1, 0.1, (1 - 0.7) * 0.8, np.radians(60), np.radians(15), np.radians(15)]
+    assert six == tuple(float(v) for v in rng.uniform(lo, hi))
+
+
+def test_suites_are_listed_and_frozen(capsys):
+    assert {"quick", "occlusion-v1", "occlusion-4dof-v1", "track-occlusion-v1"} <= set(SUITES)
+    assert get_suite("occlusion-v1", "servo").seeds == tuple(range(200, 220))
+    with pytest.raises(ConfigError, match="accepted: quick, occlusion-v1"):
+        get_suite("occlusion-v9", "servo")
+    assert main(["bench", "suites"]) == 0
+    assert "occlusion-4dof-v1 (servo)" in capsys.readouterr().out and "quick" in describe()
+    assert main(["bench", "servo", "--suite", "quick", "--seeds", "3"]) == 2
+    assert "changes what suite quick fixes" in capsys.readouterr().err
+
+
+def test_method_colours_are_stable_and_distinct():
+    specs = ["ground_truth", "ground_truth/pbvs", "hybrid:homography", "hybrid:homography/pbvs", "hybrid", "none/dvs"]
+    assert len({method_colour(s) for s in specs}) == len(specs)
+    assert method_colour("{my.pkg:make}") == method_colour("{my.pkg:make}")
+
+
+def _results(folder, suite="occlusion-v1", methods=("a", "b"), errors=None, camera="phone_handheld"):
+    folder.mkdir()
+    eps = []
+    for m in methods:
+        for seed in range(20):
+            t = errors[m][seed] if errors else 5.0
+            eps.append({**_episode(float(t), 0.5, held=bool(t < 10)), "method": m, "scenario": "walk_by", "episode_seed": seed})
+    data = {"schema": "hvs_sim.servo-results/2", "suite": suite, "commit": "abc",
+            "config": {"trackers": list(methods), "scenarios": ["walk_by"], "camera": camera, "people": "textured",
+                       "width": 640, "height": 480, "tilt_deg": 15.0, "extra_steps": 60, "steps": None,
+                       "success_px": 1.0},
+            "episodes": eps}
+    (folder / "summary.json").write_text(json.dumps(data))
+    return folder
+
+
+def test_bench_compare_pairs_episodes_and_refuses_other_suites(tmp_path, capsys):
+    rng = np.random.default_rng(0)
+    good = {"a": rng.uniform(1, 5, 20)}
+    bad = {"b": np.r_[rng.uniform(12, 30, 12), rng.uniform(1, 5, 8)]}
+    A = _results(tmp_path / "A", methods=("a",), errors=good)
+    B = _results(tmp_path / "B", methods=("b",), errors=bad)
+    res = compare(A, B)
+    row = next(r for r in res["rows"] if r["scenario"] == "all")
+    assert row["episodes"] == 20 and row["mcnemar"]["only_a"] == 12 and row["mcnemar"]["p_value"] < 0.001
+    assert row["pose_error_mm"]["p_value"] < 0.05 and row["pose_error_mm"]["median_difference"] < 0
+    out = tmp_path / "cmp"
+    assert main(["bench", "compare", str(A), str(B), "--out", str(out)]) == 0
+    assert {p.name for p in out.iterdir()} == {"compare.json", "compare.md", "compare.png"}
+    assert "McNemar" in capsys.readouterr().out
+    C = _results(tmp_path / "C", suite="quick", methods=("b",), errors=bad)
+    with pytest.raises(ConfigError, match="suite 'occlusion-v1'.*suite 'quick'"):
+        compare(A, C)
+    D = _results(tmp_path / "D", methods=("b",), errors=bad, camera="ideal")
+    with pytest.raises(ConfigError, match="differ in camera"):
+        compare(A, D)
+    assert main(["bench", "compare", str(A)]) == 2
