@@ -37,9 +37,9 @@ class Suite:
 
 SUITES: dict[str, Suite] = {s.name: s for s in (
     Suite("quick", "servo", "a look in about two minutes: someone walks by and pauses in front of the target; ground "
-          "truth and the homography hybrid beside the methods you name; 2 episodes, 6-DOF starts",
-          scenarios=("pause",), seeds=(200, 201), methods=("ground_truth", "hybrid:homography"), extra_steps=20,
-          camera="ideal", width=320, height=240),
+          "truth and the homography hybrid beside the methods you name; 4 episodes, 6-DOF starts, clean renders",
+          scenarios=("pause",), seeds=(200, 201, 202, 203), methods=("ground_truth", "hybrid:homography"),
+          extra_steps=20, camera="ideal"),
     Suite("occlusion-v1", "servo", "6-DOF servoing under occlusion: clear, walk_by, pause; 20 episodes each from 6-DOF "
           "start poses; phone_handheld camera; the built-in methods",
           scenarios=("clear", "walk_by", "pause"), seeds=tuple(range(200, 220)),
