@@ -76,6 +76,9 @@ def test_env_actions(env, action):
 # ------------------------------------------------------------------------------------------ CLI
 
 
+SEEN_CONFIGS = []  # the benchmark configs the stubs were given
+
+
 @pytest.fixture
 def stubs(monkeypatch, tmp_path):
     """Replace the long work behind each command with a stub that writes what the command reads back."""
@@ -85,6 +88,7 @@ def stubs(monkeypatch, tmp_path):
 
     def bench(summary):
         def run(cfg, out, progress=True):
+            SEEN_CONFIGS.append(cfg)
             Path(out, "summary.json").write_text(json.dumps({}))
             return summary
         return run
@@ -159,5 +163,11 @@ def test_the_stubs_let_valid_commands_through(stubs, capsys):
     assert main(["bench", "servo", "--seeds", "3", "4", "--out", str(stubs / "b")]) == 0
     assert main(["bench", "track", "--imagery", "natural", "--sources", "fur", "--out", str(stubs / "c")]) == 0
     assert main(["run", "--scenario", "pause", "--steps", "3", "--json", str(stubs / "r.json")]) == 0
+    assert main(["bench", "servo", "--suite", "occlusion-4dof-v1", "--methods", "ecc", "--out", str(stubs / "d")]) == 0
+    cfg = SEEN_CONFIGS[-1]
+    assert cfg.suite == "occlusion-4dof-v1" and cfg.tilt_deg == 0 and cfg.trackers[-1] == "ecc"
+    assert cfg.episode_seeds == list(range(200, 220)) and cfg.camera == "phone_handheld"
+    assert main(["bench", "track", "--suite", "track-occlusion-v1", "--out", str(stubs / "e")]) == 0
+    assert SEEN_CONFIGS[-1].methods == ("hybrid", "deep_lk", "ecc") and SEEN_CONFIGS[-1].mounts == ("handheld",)
     assert main(["scene", "--frames", "2", "--out", str(stubs / "s")]) == 0
     assert "NOT a result" in capsys.readouterr().out

@@ -105,3 +105,13 @@ def test_cli_checks_before_running(tmp_path, capsys):
     assert main(["sweep", "report", str(tmp_path / "o2"), "--by", "tracker"]) == 2
     err = capsys.readouterr().err
     assert "not found" in err and "give --out" in err and "needs --engine ray" in err and "spec.json missing" in err
+
+
+@pytest.mark.slow
+def test_an_outside_tracker_and_law_run_on_ray_workers(tmp_path):
+    pytest.importorskip("ray")
+    spec = parse_spec('kind = "servo"\n[axes]\ntracker = ["hvs_test_plugins.track:make", "klt_homography"]\n'
+                      'controller = ["plain_ibvs"]\n[fixed]\nsteps = 3\nscenario = "clear"\ncamera = "ideal"\n'
+                      'template_from = "start"\n')
+    counts = run_sweep(spec, tmp_path, engine="ray", workers=2, progress=False)
+    assert counts["ran"] == 2 and counts["errors"] == 0, [p.read_text() for p in (tmp_path / "tasks").glob("*")]

@@ -2,6 +2,7 @@
 
 import csv
 import math
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -227,3 +228,13 @@ def test_ctrl_c_keeps_what_was_written(clip, tmp_path, capsys, monkeypatch):
     check_outputs(out, frames=stop_at)
     captured = capsys.readouterr()
     assert "interrupted" in captured.err and f"interrupted after {stop_at} frames" in captured.out
+
+
+@pytest.mark.parametrize("tracker", ["klt_homography", str(Path(__file__).parent / "plugins" / "hvs_test_plugins"
+                                                        / "track.py") + ":make"])
+def test_an_outside_tracker_follows_the_target_in_footage(clip, tmp_path, capsys, tracker):
+    out = tmp_path / "out"
+    assert main(["track", str(clip["folder"]), "--roi", roi_arg(), "--tracker", tracker, "--out", str(out)]) == 0
+    rows = check_outputs(out)
+    assert worst_error(rows) <= PNG_BOUND_PX
+    assert f"{FRAMES} frames with {tracker}" in capsys.readouterr().out
