@@ -101,6 +101,14 @@ def cmd_run(args) -> int:
 
     if args.steps < 1:
         raise ConfigError(f"--steps must be >= 1, got {args.steps}")
+    from hvs_sim.outputs import check_apart
+    from hvs_sim.runner import steps_csv_path
+
+    check_apart([p for p in (args.target_image, args.wall_images) if p],
+                {"--json": args.json and Path(args.json), "--json's steps CSV": args.json and steps_csv_path(args.json),
+                 "--rrd": args.rrd and Path(args.rrd),
+                 **{f"--figures' {name}": args.figures and Path(args.figures) / name
+                    for name in ("frames.png", "error.png")}})
     for flag, path in (("--json", args.json), ("--rrd", args.rrd)):
         check_output_file(path, flag)
     if args.spawn:

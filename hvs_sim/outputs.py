@@ -38,17 +38,17 @@ def _suffix(flag: str) -> str:
     return {"--json": ".json", "--rrd": ".rrd"}.get(flag, "")
 
 
-def fresh_out_dir(out, overwrite: bool, outputs: tuple[str, ...], flag: str = "--out") -> Path:
+def fresh_out_dir(out, overwrite: bool, outputs: tuple[str, ...], flag: str = "--out", clear: bool = True) -> Path:
     """An output folder for a new run: empty, or with --overwrite the files this command writes
-    (glob patterns `outputs`) removed first, so no stale result stays beside new ones. Anything
-    else in the folder is left alone."""
+    (glob patterns `outputs`) removed first (`clear`; a command that renames its outputs into place at the end
+    leaves them until then), so no stale result stays beside new ones. Anything else in the folder is left alone."""
     out = prepare_out_dir(out, flag)
     entries = sorted(p.name for p in out.iterdir())
     if entries and not overwrite:
         shown = ", ".join(entries[:5]) + (", …" if len(entries) > 5 else "")
         raise ConfigError(f"{flag} {out} is not empty ({len(entries)} entries: {shown}); pass --overwrite to replace "
                           "this command's results there, or choose another folder")
-    if overwrite:
+    if overwrite and clear:
         for pattern in outputs:
             for p in out.glob(pattern):
                 if p.is_file():
@@ -68,3 +68,34 @@ def write_atomic(path, text: str) -> None:
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+def temporary_beside(path) -> Path:
+    """A unique temporary name in `path`'s folder, with its suffix kept (writers such as OpenCV's pick the format
+    from it), for a file renamed into place when complete (`os.replace`)."""
+    import os
+
+    path = Path(path)
+    return path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
+
+
+def check_apart(inputs, outputs: dict[str, Path | None]) -> None:
+    """Refuse, before any work, an output that is an input or lies inside an input folder, two outputs that are one
+    file, and an output that exists and is not a regular file (a device, a FIFO, a folder). Paths are compared
+    resolved (links followed)."""
+    ins = [Path(p).resolve() for p in inputs]
+    seen: dict[Path, str] = {}
+    for what, path in outputs.items():
+        if path is None:
+            continue
+        real = Path(path).resolve()
+        if real.exists() and not real.is_file():
+            raise ConfigError(f"{what} {path} exists and is not a regular file; give a new file name")
+        for inp in ins:
+            if real == inp or inp in real.parents:
+                where = "is" if real == inp else "lies inside"
+                raise ConfigError(f"{what} {path} {where} the input {inp}: an output may not overwrite or be written "
+                                  "into what is read; give another path")
+        if real in seen:
+            raise ConfigError(f"{what} and {seen[real]} are one file ({path}); give each output its own path")
+        seen[real] = what

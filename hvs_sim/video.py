@@ -47,7 +47,7 @@ from tqdm import tqdm
 
 from hvs_sim.cli import DEFAULT_TRACKER, add_settings_option, parse_settings
 from hvs_sim.errors import ConfigError, InputError
-from hvs_sim.outputs import check_output_file, prepare_out_dir
+from hvs_sim.outputs import check_apart, check_output_file, fresh_out_dir, temporary_beside
 from hvs_sim.plugins import make_any_tracker
 from hvs_sim.tracking import TRACKER_NAMES, Track
 from hvs_sim.tracking.frames import MIN_ROI, check_roi
@@ -258,10 +258,14 @@ class RerunTrackLog:
 
 
 class TrackOutputs:
-    """track.csv, annotated.mp4 and the optional .rrd, written one frame at a time so memory stays flat."""
+    """track.csv, annotated.mp4 and the optional .rrd, written one frame at a time so memory stays flat, each under a
+    temporary name beside its target and renamed into place when closed: a run that fails leaves no partial file
+    and removes nothing it did not create; an earlier result stays until the new one is complete."""
 
     def __init__(self, out: Path, size: tuple[int, int], fps: float, rrd: Path | None = None):
-        self.csv_path, self.video_path, self.rrd = out / CSV_NAME, out / VIDEO_NAME, rrd
+        self.final = [p for p in (out / CSV_NAME, out / VIDEO_NAME, rrd) if p is not None]
+        self.csv_path, self.video_path = temporary_beside(out / CSV_NAME), temporary_beside(out / VIDEO_NAME)
+        self.rrd = None if rrd is None else temporary_beside(rrd)
         self._open = ExitStack()  # closes whatever was opened, in reverse order
         try:
             self._start(size, fps)
@@ -286,19 +290,27 @@ class TrackOutputs:
         if self.rerun:
             self.rerun.log(index, frame, track)
 
+    def _temporaries(self) -> list[Path]:
+        return [p for p in (self.csv_path, self.video_path, self.rrd) if p is not None]
+
     def close(self) -> None:
+        """Close the files and rename each into place (the frames written so far, also after Ctrl-C)."""
+        import os
+
         self._open.close()
+        for tmp, final in zip(self._temporaries(), self.final, strict=True):
+            os.replace(tmp, final)
 
     def discard(self) -> None:
-        """Close and remove everything: a run that failed part-way must not leave a result behind."""
-        self.close()
-        for path in (self.csv_path, self.video_path, self.rrd):
-            if path is not None:
-                path.unlink(missing_ok=True)
+        """Close and remove what this run wrote: a run that failed part-way leaves no result behind, and nothing that
+        was there before it is touched."""
+        self._open.close()
+        for path in self._temporaries():
+            path.unlink(missing_ok=True)
 
     @property
     def paths(self) -> list[Path]:
-        return [p for p in (self.csv_path, self.video_path, self.rrd) if p is not None]
+        return list(self.final)
 
 
 # ---------------------------------------------------------------- the run
@@ -333,15 +345,19 @@ class TrackResult:
 
 
 def track_footage(path, roi, tracker: str = DEFAULT_TRACKER, out="out/track", rrd=None,
-                  progress: bool = True, settings: dict | None = None) -> TrackResult:
+                  progress: bool = True, settings: dict | None = None, overwrite: bool = False) -> TrackResult:
     """Check every input, then stream the frames through the tracker into the outputs.
-    settings: the tracker's config fields (make_tracker keywords), e.g. other weights."""
+    settings: the tracker's config fields (make_tracker keywords), e.g. other weights. An --out holding anything
+    is refused unless `overwrite` (then its earlier track.csv and annotated.mp4 are replaced when this run ends)."""
     tracker = check_tracker_name(tracker)
     roi = parse_roi(roi) if isinstance(roi, str) else roi
+    check_apart([path], {"--out's track.csv": Path(out) / CSV_NAME, "--out's annotated.mp4": Path(out) / VIDEO_NAME,
+                         "--rrd": None if rrd is None else Path(rrd)})
     source = open_frames(path)
     try:
         roi = check_roi(roi, source.first.shape[:2])
-        out, rrd = prepare_out_dir(out), prepare_rrd(rrd)
+        out = fresh_out_dir(out, overwrite, (CSV_NAME, VIDEO_NAME), clear=False)
+        rrd = prepare_rrd(rrd)
         method = make_any_tracker(tracker, **(settings or {}))
         outputs = TrackOutputs(out, source.size, source.fps, rrd)
         result = TrackResult(tracker, outputs.paths)
@@ -397,6 +413,8 @@ def add_track_parser(sub) -> None:
     p.add_argument("--out", default="out/track", metavar="DIR",
                    help="folder for track.csv and annotated.mp4, created when missing (default out/track)")
     p.add_argument("--rrd", default=None, metavar="FILE", help="also save a rerun recording here")
+    p.add_argument("--overwrite", action="store_true",
+                   help="track into a non-empty --out (its track.csv and annotated.mp4 are replaced when the run ends)")
     add_settings_option(p)
     p.set_defaults(func=cmd_track)
 
@@ -404,7 +422,7 @@ def add_track_parser(sub) -> None:
 def cmd_track(args) -> int:
     try:
         result = track_footage(args.path, args.roi, args.tracker, args.out, args.rrd,
-                               settings=parse_settings(args.set))
+                               settings=parse_settings(args.set), overwrite=args.overwrite)
     except KeyboardInterrupt:  # before the first frame was tracked: nothing was written
         print("hvs-sim: interrupted (Ctrl-C) before tracking started; nothing written", file=sys.stderr)
         return EXIT_INTERRUPTED

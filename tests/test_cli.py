@@ -148,3 +148,14 @@ def test_tracker_settings_from_the_command_line(tmp_path, capsys):
                  "hybrid", "--set", "predictor=constant_velocity", "--set", "occlusion_gate=0.4", "--json",
                  str(out)]) == 0
     assert json.loads(out.read_text())["steps_run"] == 3
+
+
+def test_run_refuses_two_outputs_in_one_file(tmp_path, capsys):
+    from hvs_sim.cli import main
+
+    same = tmp_path / "x.json"
+    assert main(["run", "--steps", "2", "--json", str(same), "--rrd", str(same)]) == 2
+    assert "one file" in capsys.readouterr().err and not same.exists()
+    assert main(["run", "--steps", "2", "--json", str(tmp_path / "r.json"), "--rrd",
+                 str(tmp_path / "r_steps.csv")]) == 2
+    assert "one file" in capsys.readouterr().err

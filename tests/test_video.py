@@ -238,3 +238,49 @@ def test_an_outside_tracker_follows_the_target_in_footage(clip, tmp_path, capsys
     rows = check_outputs(out)
     assert worst_error(rows) <= PNG_BOUND_PX
     assert f"{FRAMES} frames with {tracker}" in capsys.readouterr().out
+
+
+def test_outputs_never_touch_the_inputs(clip, tmp_path, capsys):
+    """An output that is an input, lies inside the input folder, or is another output: refused before any work, and
+    every input byte is still there."""
+    frames = sorted(clip["folder"].iterdir())
+    before = {p: p.read_bytes() for p in [*frames, clip["mp4"]]}
+    out = tmp_path / "out"
+    for argv, words in (
+        ([str(clip["folder"]), "--out", str(out), "--rrd", str(frames[3])], ("--rrd", "lies inside the input")),
+        ([str(clip["mp4"]), "--out", str(out), "--rrd", str(clip["mp4"])], ("--rrd", "is the input")),
+        ([str(clip["folder"]), "--out", str(clip["folder"])], ("lies inside the input",)),
+        ([str(clip["folder"]), "--out", str(out), "--rrd", str(out / "track.csv")], ("one file",)),
+        ([str(clip["folder"]), "--out", str(out), "--rrd", "/dev/null"], ("not a regular file",)),
+    ):
+        assert main(["track", *argv, "--roi", roi_arg()]) == 2, argv
+        err = capsys.readouterr().err
+        assert all(w in err for w in words), (argv, err)
+    assert {p: p.read_bytes() for p in before} == before and Path("/dev/null").exists()
+    # tracking a run's own annotated video with that run's --out: the input would be replaced while read
+    assert main(["track", str(clip["folder"]), "--roi", roi_arg(), "--out", str(out)]) == 0
+    assert main(["track", str(out / "annotated.mp4"), "--roi", roi_arg(), "--out", str(out), "--overwrite"]) == 2
+    assert "is the input" in capsys.readouterr().err
+
+
+def test_a_second_track_into_a_used_out_needs_overwrite_and_a_failure_keeps_the_earlier_result(clip, tmp_path,
+                                                                                              capsys, monkeypatch):
+    out = tmp_path / "out"
+    assert main(["track", str(clip["folder"]), "--roi", roi_arg(), "--out", str(out)]) == 0
+    first = (out / "track.csv").read_bytes()
+    assert main(["track", str(clip["folder"]), "--roi", roi_arg(), "--out", str(out)]) == 2
+    assert "not empty" in capsys.readouterr().err and (out / "track.csv").read_bytes() == first
+    from hvs_sim import video
+
+    real = video.annotate
+
+    def broken(frame, index, track):
+        if index == 5:
+            raise RuntimeError("disk gone")
+        return real(frame, index, track)
+
+    monkeypatch.setattr(video, "annotate", broken)
+    with pytest.raises(RuntimeError, match="disk gone"):
+        video.track_footage(clip["folder"], ROI, out=out, overwrite=True, progress=False)
+    assert (out / "track.csv").read_bytes() == first  # the earlier complete result, untouched
+    assert sorted(p.name for p in out.iterdir()) == ["annotated.mp4", "track.csv"]  # no temporary left
