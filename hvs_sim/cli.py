@@ -446,9 +446,11 @@ def cmd_sweep(args) -> int:
     spec = sweep.load_spec(args.target[0])
     if args.out is None:
         raise ConfigError("give --out DIR: where the sweep keeps its tasks and results (re-running resumes there)")
-    counts = sweep.run_sweep(spec, args.out, engine=args.engine, workers=args.workers, address=args.address)
-    print(f"{counts['tasks']} tasks: {counts['skipped_done']} already done, {counts['ran']} ran, "
-          f"{counts['errors']} of those failed (recorded with their error)")
+    counts = sweep.run_sweep(spec, args.out, engine=args.engine, workers=args.workers, address=args.address,
+                             retry_failed=not args.no_retry_failed, max_tasks=args.max_tasks or sweep.MAX_TASKS)
+    print(f"{counts['tasks']} tasks: {counts['skipped_done']} already done, {counts['ran']} ran "
+          f"({counts['retried_failed']} failed before, {counts['corrupt_rerun']} with an unreadable record set aside "
+          f"in tasks/corrupt/), {counts['errors']} of those failed (recorded with their error)")
     print(f"results: {args.out}/results.csv (report: hvs-sim sweep report {args.out} --by tracker)")
     return 0
 
@@ -660,6 +662,11 @@ def build_parser() -> argparse.ArgumentParser:
                    "local instance)")
     p.add_argument("--workers", type=int, default=1, help="processes (local) or CPUs of a local Ray instance")
     p.add_argument("--by", default=None, help="report: parameters to group by, comma-separated, e.g. tracker,scenario")
+    p.add_argument("--no-retry-failed", action="store_true",
+                   help="on a re-run, keep the tasks that failed as they are (default: run them again)")
+    p.add_argument("--max-tasks", type=int, default=None,
+                   help="refuse a spec whose grid has more tasks than this, before building it (default: "
+                        "hvs_sim.sweep.MAX_TASKS, 10 000)")
     p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser("scenes", formatter_class=HelpFormatter, help="list scenario presets, camera presets, wall sets and targets")

@@ -43,7 +43,7 @@ from hvs_sim.scene.world import Scene
 from hvs_sim.tracking import TRACKER_NAMES, Track, Tracker, make_tracker
 from hvs_sim.tracking.frames import MIN_ROI, inset_roi, roi_corners, roi_from_corners
 from hvs_sim.tracking.warp import perspective_transform
-from hvs_sim.validate import check_number
+from hvs_sim.validate import check_flags, check_number
 
 LOOP_TRACKERS = (plugins.GROUND_TRUTH, plugins.NO_TRACKER) + TRACKER_NAMES  # the built-ins; plugins beside them
 MAX_STEPS = 100_000
@@ -114,8 +114,11 @@ class LoopConfig:
             raise ConfigError(f"converge_mm and converge_deg must be > 0, got {self.converge_mm}, {self.converge_deg}")
         if isinstance(self.steps, bool) or not isinstance(self.steps, (int, np.integer)) or not 1 <= self.steps <= MAX_STEPS:
             raise ConfigError(f"steps must be an int in [1, {MAX_STEPS}], got {self.steps!r}")
-        if self.converge_px <= 0 or self.hold_steps < 1:
-            raise ConfigError("converge_px must be > 0 and hold_steps >= 1")
+        check_number("converge_px", self.converge_px, 0, lo_open=True)
+        check_number("hold_steps", self.hold_steps, 1, integer=True)
+        check_number("converge_mm", self.converge_mm, 0, lo_open=True)
+        check_number("converge_deg", self.converge_deg, 0, lo_open=True)
+        check_flags(self, ("keep_frames", "evaluate", "pipeline"))
 
 
 @dataclass

@@ -37,6 +37,8 @@ from hvs_sim.validate import check_number
 
 KINDS = ("track", "servo")
 ENGINES = ("local", "ray")
+MAX_TASKS = 10_000  # a grid larger than this is refused before anything is built (run_sweep's max_tasks overrides)
+LOCK_NAME = ".sweep.lock"  # held by the one sweep that writes a folder (fcntl.flock; released when the process ends)
 # metrics that measure time: they differ between runs and engines; every other metric is seeded
 TIMING_METRICS = ("median_ms", "p95_ms", "steps_per_second", "task_seconds")
 
@@ -143,13 +145,27 @@ def parse_spec(text: str, source: str = "spec") -> SweepSpec:
     for key, values in axes.items():
         if not isinstance(values, list) or not values:
             raise ConfigError(f"{source}: axis {key!r} must be a non-empty list, got {values!r}")
-        if len({json.dumps(v) for v in values}) != len(values):
+        if len({json.dumps(_same_number(v)) for v in values}) != len(values):  # 2 and 2.0 are one cell
             raise ConfigError(f"{source}: axis {key!r} repeats a value: {values}")
         for v in values:
             _check_value(kind, key, v, accepted[key])
     for key, v in fixed.items():
         _check_value(kind, key, v, accepted[key])
     return SweepSpec(kind, axes, fixed)
+
+
+def _same_number(v):
+    """2 and 2.0 as one value (a grid cell run twice otherwise); bools and the rest as they are."""
+    return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v
+
+
+def grid_size(spec: SweepSpec) -> int:
+    """The number of tasks, without building the grid."""
+    return int(np.prod([len(v) for v in spec.axes.values()], dtype=object))
+
+
+def spec_hash(spec: SweepSpec) -> str:
+    return hashlib.sha1(json.dumps(dataclasses.asdict(spec), sort_keys=True).encode()).hexdigest()[:16]
 
 
 def load_spec(path) -> SweepSpec:
@@ -253,9 +269,9 @@ def _portable(params: dict) -> dict:
 
 
 def _write_atomic(path: Path, data: dict) -> None:
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(data, indent=1))
-    os.replace(tmp, path)
+    from hvs_sim.outputs import write_atomic
+
+    write_atomic(path, json.dumps(data, indent=1))
 
 
 def _run_local(jobs, workers, on_done, progress) -> None:
@@ -299,40 +315,105 @@ def _run_ray(jobs, workers, address, on_done, progress) -> None:
         ray.shutdown()
 
 
+def _lock(out: Path):
+    """The sweep folder's lock, held until the returned file is closed (or the process ends, even killed): a second
+    sweep into the folder is refused instead of racing on its files."""
+    import fcntl
+
+    f = open(out / LOCK_NAME, "a+")  # noqa: SIM115 - closed by the caller
+    try:
+        fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        f.seek(0)
+        holder = f.read().strip() or "another process"
+        f.close()
+        raise ConfigError(f"another sweep is writing {out} ({holder}); wait for it to end, or give another --out") \
+            from None
+    f.seek(0)
+    f.truncate()
+    f.write(f"pid {os.getpid()}")
+    f.flush()
+    return f
+
+
+def _check_spec_file(spec: SweepSpec, out: Path) -> None:
+    """A folder holds one spec's tasks: a different spec into it is refused (its results would be mixed)."""
+    path = out / "spec.json"
+    if not path.exists():
+        return
+    try:
+        old = SweepSpec(**json.loads(path.read_text()))
+    except (OSError, ValueError, TypeError):
+        return  # an unreadable spec.json (cut by a full disk) is replaced by this one
+    if spec_hash(old) != spec_hash(spec):
+        raise ConfigError(f"{out} holds another sweep's tasks (spec.json differs from this spec); give another --out, "
+                          "or remove that folder to start over")
+
+
+def _task_state(path: Path) -> str:
+    """"ok", "error" (a failed task, retried on re-run), "corrupt" (unreadable: set aside and re-run) or "missing"."""
+    if not path.exists():
+        return "missing"
+    try:
+        record = json.loads(path.read_text())
+        return "ok" if record["status"] == "ok" and isinstance(record.get("metrics"), dict) else "error"
+    except (OSError, ValueError, KeyError, TypeError):
+        return "corrupt"
+
+
 def run_sweep(spec: SweepSpec, out, engine: str = "local", workers: int = 1, address: str | None = None,
-              progress: bool = True) -> dict:
+              progress: bool = True, retry_failed: bool = True, max_tasks: int = MAX_TASKS) -> dict:
     """Run every task of `spec` not yet done in `out`; returns counts. Writes tasks/*.json as tasks
-    finish and results.csv at the end (also when interrupted: the tasks done so far)."""
-    from hvs_sim.outputs import prepare_out_dir
+    finish and results.csv at the end (also when interrupted: the tasks done so far). Failed tasks are run
+    again unless `retry_failed` is off; an unreadable task record is moved to tasks/corrupt/ and its task re-run."""
+    from hvs_sim.outputs import prepare_out_dir, write_atomic
 
     if engine not in ENGINES:
         raise choice_error("engine", engine, ENGINES)
     check_number("workers", workers, 1, integer=True)
+    check_number("max_tasks", max_tasks, 1, integer=True)
     if address and engine != "ray":
         raise ConfigError("--address joins a Ray cluster: it needs --engine ray")
+    n = grid_size(spec)
+    if n > max_tasks:
+        raise ConfigError(f"the spec's grid has {n} tasks, more than {max_tasks}; shorten its axes, or raise the limit "
+                          "(--max-tasks)")
     out = prepare_out_dir(out)
-    tasks_dir = out / "tasks"
-    tasks_dir.mkdir(exist_ok=True)
-    (out / "spec.json").write_text(json.dumps(dataclasses.asdict(spec), indent=2))
-    remote = engine == "ray" or workers > 1
-    jobs = [(spec.kind, task_id(spec.kind, p), p, _portable(p) if remote else p) for p in spec.tasks()]
-    pending = [j for j in jobs if not (tasks_dir / f"{j[1]}.json").exists()]
-    counts = {"tasks": len(jobs), "skipped_done": len(jobs) - len(pending), "ran": 0, "errors": 0}
-
-    def on_done(record: dict) -> None:
-        record["engine"] = engine
-        _write_atomic(tasks_dir / f"{record['id']}.json", record)
-        counts["ran"] += 1
-        counts["errors"] += record["status"] != "ok"
-
+    lock = _lock(out)
     try:
-        if pending:
-            if engine == "ray":
-                _run_ray(pending, workers, address, on_done, progress)
-            else:
-                _run_local(pending, workers, on_done, progress)
+        _check_spec_file(spec, out)
+        tasks_dir = out / "tasks"
+        tasks_dir.mkdir(exist_ok=True)
+        write_atomic(out / "spec.json", json.dumps(dataclasses.asdict(spec), indent=2))
+        remote = engine == "ray" or workers > 1
+        jobs = [(spec.kind, task_id(spec.kind, p), p, _portable(p) if remote else p) for p in spec.tasks()]
+        state = {j[1]: _task_state(tasks_dir / f"{j[1]}.json") for j in jobs}
+        for tid, s in state.items():
+            if s == "corrupt":
+                (tasks_dir / "corrupt").mkdir(exist_ok=True)
+                os.replace(tasks_dir / f"{tid}.json", tasks_dir / "corrupt" / f"{tid}.{int(time.time())}.json")
+        rerun = {"missing", "corrupt"} | ({"error"} if retry_failed else set())
+        pending = [j for j in jobs if state[j[1]] in rerun]
+        counts = {"tasks": len(jobs), "skipped_done": len(jobs) - len(pending), "ran": 0, "errors": 0,
+                  "retried_failed": sum(state[j[1]] == "error" for j in pending),
+                  "corrupt_rerun": sum(state[j[1]] == "corrupt" for j in pending)}
+
+        def on_done(record: dict) -> None:
+            record["engine"] = engine
+            _write_atomic(tasks_dir / f"{record['id']}.json", record)
+            counts["ran"] += 1
+            counts["errors"] += record["status"] != "ok"
+
+        try:
+            if pending:
+                if engine == "ray":
+                    _run_ray(pending, workers, address, on_done, progress)
+                else:
+                    _run_local(pending, workers, on_done, progress)
+        finally:
+            write_table(spec, out)
     finally:
-        write_table(spec, out)
+        lock.close()
     return counts
 
 
@@ -345,7 +426,7 @@ def load_records(spec: SweepSpec, out) -> list[dict]:
     records = []
     for p in spec.tasks():
         f = tasks_dir / f"{task_id(spec.kind, p)}.json"
-        if f.exists():
+        if _task_state(f) in ("ok", "error"):  # an unreadable record counts as not done (re-run sets it aside)
             records.append(json.loads(f.read_text()))
     return records
 
@@ -359,8 +440,12 @@ def write_table(spec: SweepSpec, out) -> Path:
     records = load_records(spec, out)
     params = list(dict.fromkeys(k for p in spec.tasks() for k in p))
     metrics = list(dict.fromkeys(k for r in records for k in _flat_metrics(r)))
+    import io
+
+    from hvs_sim.outputs import write_atomic
+
     path = Path(out) / "results.csv"
-    with open(path, "w", newline="") as f:
+    with io.StringIO(newline="") as f:
         w = csv.writer(f)
         w.writerow(["id", "status", *params, *metrics, "task_seconds", "engine", "error"])
         for r in records:
@@ -368,6 +453,7 @@ def write_table(spec: SweepSpec, out) -> Path:
             w.writerow([r["id"], r["status"], *(r["params"].get(k, "") for k in params),
                         *("" if m.get(k) is None else m[k] for k in metrics), r.get("task_seconds", ""),
                         r.get("engine", ""), r.get("error", "")])
+        write_atomic(path, f.getvalue())
     return path
 
 
@@ -377,7 +463,11 @@ def report(out, by: list[str], figures: bool = True) -> str:
     spec_file = out / "spec.json"
     if not spec_file.exists():
         raise ConfigError(f"{out} holds no sweep (spec.json missing); run `hvs-sim sweep SPEC --out {out}` first")
-    spec = SweepSpec(**json.loads(spec_file.read_text()))
+    try:
+        spec = SweepSpec(**json.loads(spec_file.read_text()))
+    except (OSError, ValueError, TypeError) as exc:
+        raise ConfigError(f"{spec_file} cannot be read ({type(exc).__name__}: {exc}); run the sweep's spec into {out} "
+                          "again to rewrite it") from None
     records = load_records(spec, out)
     if not records:
         raise ConfigError(f"{out}: no finished tasks yet")
@@ -410,7 +500,9 @@ def report(out, by: list[str], figures: bool = True) -> str:
             stats[g] = {"errors": err}
         lines.append(f"| {' | '.join(map(str, g))} | {' | '.join(map(str, cells))} |")
     text = "\n".join(lines) + "\n"
-    (out / "report.md").write_text(text)
+    from hvs_sim.outputs import write_atomic
+
+    write_atomic(out / "report.md", text)
     if figures:
         _report_figures(spec.kind, stats, by, out)
     return text

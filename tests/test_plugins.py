@@ -206,6 +206,6 @@ def test_sweep_takes_an_outside_tracker(tmp_path):
                             '[fixed]\nsteps = 3\nscenario = "clear"\ncamera = "ideal"\n'
                             'template_from = "start"\n')
     counts = sweep.run_sweep(spec, tmp_path, progress=False)
-    assert counts == {"tasks": 2, "skipped_done": 0, "ran": 2, "errors": 0}
+    assert (counts["tasks"], counts["ran"], counts["errors"]) == (2, 2, 0)
     with pytest.raises(ConfigError, match="cannot import module"):
         sweep.parse_spec('kind = "servo"\n[axes]\ntracker = ["nosuch.mod:make"]\n')

@@ -65,19 +65,21 @@ def _table(out):
 def test_failures_are_recorded_resume_skips_done_tasks_and_matches_an_uninterrupted_run(tmp_path):
     spec = parse_spec(TINY)
     full = run_sweep(spec, tmp_path / "full", workers=2, progress=False)
-    assert full == {"tasks": 8, "skipped_done": 0, "ran": 8, "errors": 4}
+    assert full == {"tasks": 8, "skipped_done": 0, "ran": 8, "errors": 4, "retried_failed": 0, "corrupt_rerun": 0}
     rows = _table(tmp_path / "full")
     failed = [r for r in rows if r["status"] == "error"]
     assert len(failed) == 4 and all(r["width"] == "96" and "outside" in r["error"] for r in failed)
     assert all(float(r["pct_le_2px"]) == 100.0 for r in rows if r["status"] == "ok")
-    again = run_sweep(spec, tmp_path / "full", progress=False)
+    again = run_sweep(spec, tmp_path / "full", progress=False, retry_failed=False)
     assert again["ran"] == 0 and again["skipped_done"] == 8
+    again = run_sweep(spec, tmp_path / "full", progress=False)  # the failed tasks are tried again by default
+    assert again["ran"] == again["retried_failed"] == again["errors"] == 4
     # an interrupted sweep: only some task files exist; re-running completes it to the same table
     part = tmp_path / "part"
     (part / "tasks").mkdir(parents=True)
     for f in sorted((tmp_path / "full" / "tasks").glob("*.json"))[:3]:
         (part / "tasks" / f.name).write_text(f.read_text())
-    resumed = run_sweep(spec, part, progress=False)
+    resumed = run_sweep(spec, part, progress=False, retry_failed=False)
     assert resumed["skipped_done"] == 3 and resumed["ran"] == 5
     assert _table(part) == rows
     text = report(tmp_path / "full", ["tracker"])
@@ -115,3 +117,70 @@ def test_an_outside_tracker_and_law_run_on_ray_workers(tmp_path):
                       'template_from = "start"\n')
     counts = run_sweep(spec, tmp_path, engine="ray", workers=2, progress=False)
     assert counts["ran"] == 2 and counts["errors"] == 0, [p.read_text() for p in (tmp_path / "tasks").glob("*")]
+
+
+def _tiny_spec():
+    return parse_spec('kind = "servo"\n[axes]\ntracker = ["ground_truth"]\nseed = [200, 201]\n[fixed]\nsteps = 2\n'
+                      'scenario = "clear"\ncamera = "ideal"\n')
+
+
+def test_a_second_sweep_into_a_folder_in_use_is_refused(tmp_path):
+    """Two processes: one holds the folder's lock (as a running sweep does), the other is refused and writes nothing."""
+    import subprocess
+    import sys
+    import time
+
+    from hvs_sim.sweep import LOCK_NAME
+
+    holder = subprocess.Popen([sys.executable, "-c", (
+        "import fcntl, os, sys, time; f = open(sys.argv[1], 'a+'); fcntl.flock(f, fcntl.LOCK_EX); "
+        "f.write(f'pid {os.getpid()}'); f.flush(); print('held', flush=True); time.sleep(60)"),
+        str(tmp_path / LOCK_NAME)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        with pytest.raises(ConfigError, match=f"another sweep is writing .*pid {holder.pid}"):
+            run_sweep(_tiny_spec(), tmp_path, progress=False)
+        assert not (tmp_path / "tasks").exists() and not (tmp_path / "spec.json").exists()
+    finally:
+        holder.kill()
+        holder.wait()
+    time.sleep(0.1)
+    assert run_sweep(_tiny_spec(), tmp_path, progress=False)["ran"] == 2  # the lock died with its holder
+
+
+def test_another_spec_is_refused_corrupt_records_rerun_and_failed_tasks_retried(tmp_path, capsys):
+    spec = _tiny_spec()
+    assert run_sweep(spec, tmp_path, progress=False)["ran"] == 2
+    other = parse_spec('kind = "servo"\n[axes]\ntracker = ["ground_truth"]\nseed = [7]\n')
+    with pytest.raises(ConfigError, match="holds another sweep's tasks"):
+        run_sweep(other, tmp_path, progress=False)
+    tasks = sorted((tmp_path / "tasks").glob("*.json"))
+    tasks[0].write_text("")  # a record cut by a full disk
+    record = json.loads(tasks[1].read_text())
+    tasks[1].write_text(json.dumps({**record, "status": "error", "error": "RayActorError: node lost"}))
+    assert "| ground_truth |" in report(tmp_path, ["tracker"], figures=False)  # the unreadable record is not fatal
+    counts = run_sweep(spec, tmp_path, progress=False)
+    assert counts["ran"] == 2 and counts["corrupt_rerun"] == 1 and counts["retried_failed"] == 1
+    assert len(list((tmp_path / "tasks" / "corrupt").iterdir())) == 1
+    assert all(json.loads(p.read_text())["status"] == "ok" for p in tasks)
+    assert run_sweep(spec, tmp_path, progress=False)["ran"] == 0
+
+
+@pytest.mark.parametrize("text, match", [
+    ('kind = "servo"\n[axes]\nevaluate = ["no"]\n', "evaluate must be True or False"),
+    ('kind = "servo"\n[axes]\nhold_steps = [2.5]\n', "hold_steps must be an integer"),
+    ('kind = "servo"\n[axes]\nconverge_px = [nan]\n', "converge_px must be a finite number"),
+    ('kind = "servo"\n[axes]\ngain = [2, 2.0]\n', "repeats a value"),
+])
+def test_wrongly_typed_spec_values_are_refused(text, match):
+    with pytest.raises(ConfigError, match=match):
+        parse_spec(text)
+
+
+def test_a_huge_grid_is_refused_before_it_is_built(tmp_path):
+    axes = "\n".join(f"{k} = [{', '.join(str(200 + i) for i in range(40))}]" for k in ("seed",))
+    spec = parse_spec(f'kind = "servo"\n[axes]\n{axes}\ngain = [{", ".join(str(1 + i / 10) for i in range(40))}]\n'
+                      f'hold_steps = [{", ".join(str(i + 1) for i in range(10))}]\n')
+    with pytest.raises(ConfigError, match="16000 tasks, more than 10000"):
+        run_sweep(spec, tmp_path, progress=False)
+    assert not (tmp_path / "spec.json").exists()
