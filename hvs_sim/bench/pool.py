@@ -4,15 +4,36 @@ from __future__ import annotations
 
 import json
 import multiprocessing
+import os
 import signal
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+PR_SET_PDEATHSIG = 1  # linux/prctl.h
+
+
+def die_with_parent() -> None:
+    """Ask Linux to kill this process when the one that started it dies, however it dies (SIGKILL included): a
+    killed benchmark or sweep leaves no worker behind. Elsewhere (no prctl) the pool's own shutdown still ends them."""
+    import ctypes
+    import sys
+
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):  # no libc symbol: keep the pool's shutdown as the only guard
+        return
+    if os.getppid() == 1:  # the parent died before the request took effect
+        os._exit(1)
+
 
 def _ignore_sigint() -> None:
-    """Workers leave Ctrl-C to the parent, which ends them; otherwise each prints its own traceback."""
+    """Workers leave Ctrl-C to the parent, which ends them (otherwise each prints its own traceback), and die with it."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    die_with_parent()
 
 
 def run_jobs(fn: Callable, jobs: Sequence, workers: int, desc: str, unit: str, progress: bool = True) -> Iterator:
