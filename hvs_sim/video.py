@@ -114,7 +114,11 @@ def open_frames(path) -> FrameSource:
     if not path.exists():
         raise InputError(f"{path} does not exist; give a video file OpenCV can read or a folder of images "
                          f"({' '.join(IMAGE_SUFFIXES)})")
-    return _open_folder(path) if path.is_dir() else _open_video(path)
+    if path.is_dir():
+        return _open_folder(path)
+    if not path.is_file():  # a FIFO or a device would block or never end
+        raise InputError(f"{path} is not a regular file or a folder; give a video file or a folder of images")
+    return _open_video(path)
 
 
 def _open_folder(folder: Path) -> FrameSource:
@@ -127,13 +131,14 @@ def _open_folder(folder: Path) -> FrameSource:
 
 
 def _read_image(path: Path, shape: tuple[int, ...] | None = None) -> np.ndarray:
-    bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if bgr is None:
-        raise InputError(f"cannot read image {path}; accepted: {' '.join(IMAGE_SUFFIXES)} files OpenCV can decode")
-    if shape is not None and bgr.shape != shape:
-        raise InputError(f"image {path} is {bgr.shape[1]}×{bgr.shape[0]} but the first image is "
+    """A frame of a folder, read as scene.images.read_rgb reads images (size from the header, EXIF, 16 bit, alpha)."""
+    from hvs_sim.scene.images import read_rgb
+
+    rgb = read_rgb(path, "image")
+    if shape is not None and rgb.shape != shape:
+        raise InputError(f"image {path} is {rgb.shape[1]}×{rgb.shape[0]} but the first image is "
                          f"{shape[1]}×{shape[0]}; every image in the folder must have the same size")
-    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+    return rgb
 
 
 def _folder_frames(files: list[Path], shape: tuple[int, ...]) -> Iterator[np.ndarray]:
