@@ -32,6 +32,7 @@ from __future__ import annotations
 import argparse
 import csv
 import logging
+import re
 import statistics
 import sys
 import time
@@ -75,10 +76,9 @@ MODE_PLOT_CODE = {INIT_MODE: 0, "align": 0, "predict": 1, "lost": 2}
 
 def parse_roi(text: str) -> tuple[int, int, int, int]:
     """'x,y,w,h' → four ints; the bounds are checked against the first frame later (check_roi)."""
-    try:
-        roi = tuple(int(part) for part in str(text).split(","))
-    except ValueError:
-        roi = ()
+    parts = [part.strip() for part in str(text).split(",")]
+    # ASCII digits only: int() would also read "١٢٣" or "1_00"
+    roi = tuple(int(p) for p in parts) if all(re.fullmatch(r"[+-]?[0-9]+", p) for p in parts) else ()
     if len(roi) != 4:
         raise InputError(f"--roi must be 4 integers x,y,w,h separated by commas (e.g. 120,80,64,48), got {text!r}")
     return roi

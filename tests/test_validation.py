@@ -95,3 +95,32 @@ def test_joint_velocities_refuse_nan_instead_of_passing_it_on():
         twist_to_joint_velocities(J, np.zeros(3), np.zeros(6), limits)
     cmd = twist_to_joint_velocities(J, np.full(6, 0.1), np.zeros(6), limits)
     assert np.isfinite(cmd.qdot).all()
+
+
+def test_public_entry_points_check_argument_types():
+    """Wrong types get an HvsError that says what is accepted, never a raw TypeError (issue of careless input)."""
+    import gymnasium as gym
+
+    import hvs_sim  # noqa: F401 (registers the env)
+    from hvs_sim.errors import HvsError
+    from hvs_sim.tracking import make_tracker
+    from hvs_sim.video import parse_roi
+
+    with pytest.raises(HvsError, match="must be a string"):
+        make_tracker(["hybrid"])
+    with pytest.raises(HvsError, match="as keywords"):
+        make_tracker("hybrid", 5)
+    for text in ("١٢٠,80,64,48", "1_00,80,64,48"):
+        with pytest.raises(HvsError, match="4 integers"):
+            parse_roi(text)
+    assert parse_roi(" 120, 80,64,48") == (120, 80, 64, 48)
+    env = gym.make("hvs_sim/VisualServo-v0", render_mode="rgb_array").unwrapped
+    with pytest.raises(HvsError, match="reset"):
+        env.render()
+    with pytest.raises(HvsError, match="seed must be"):
+        env.reset(seed=True)
+    env.reset(seed=1)
+    for action in (["0.1"] * 6, np.full(6, 0.1 + 0.1j), [True] * 6):
+        with pytest.raises(HvsError, match="real numbers"):
+            env.step(action)
+    env.close()

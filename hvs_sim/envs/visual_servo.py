@@ -19,6 +19,7 @@ Workers of a vector env must be started with 'spawn' once the parent has rendere
 from __future__ import annotations
 
 import dataclasses
+import numbers
 from typing import ClassVar
 
 import gymnasium as gym
@@ -91,7 +92,9 @@ class VisualServoEnv(gym.Env):
         return float(np.linalg.norm(gt.corners - self.desired, axis=1).mean())
 
     def reset(self, *, seed=None, options=None):
-        super().reset(seed=seed)
+        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0):
+            raise InputError(f"seed must be None or a non-negative integer, got {seed!r}")
+        super().reset(seed=None if seed is None else int(seed))
         from hvs_sim.render.renderer import Renderer
         from hvs_sim.scene.world import Scene
 
@@ -111,9 +114,12 @@ class VisualServoEnv(gym.Env):
         if self.scene is None:
             raise ResetNeededError("call reset() before step()")
         try:
-            a = np.asarray(action, np.float64)
+            raw = np.asarray(action)
         except (TypeError, ValueError):
-            raise InputError(f"action must be numbers of shape {self.action_space.shape}, got {action!r}") from None
+            raw = np.asarray(None)
+        if raw.dtype.kind not in "iuf":  # strings, complex numbers, objects, bools are not velocities
+            raise InputError(f"action must be real numbers of shape {self.action_space.shape}, got {action!r}")
+        a = raw.astype(np.float64)
         if a.shape != self.action_space.shape:
             raise InputError(f"action must have shape {self.action_space.shape} ({self.action_type}), got {a.shape}")
         if not np.isfinite(a).all():
@@ -131,7 +137,9 @@ class VisualServoEnv(gym.Env):
         return self._obs(), -err * self.reward_scale, terminated, False, info
 
     def render(self):
-        if self.render_mode == "rgb_array" and self.scene is not None:
+        if self.scene is None:
+            raise ResetNeededError("call reset() before render()")
+        if self.render_mode == "rgb_array":
             return self._frame.copy()
         return None
 

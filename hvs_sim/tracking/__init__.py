@@ -83,14 +83,24 @@ def _builder(name: str, config: dict):
 
 def check_tracker(name: str, **config) -> None:
     """Raise the ConfigError `make_tracker(name, **config)` would, without building the tracker."""
-    _builder(name, config)
+    _builder(_check_name(name), config)
 
 
-def make_tracker(name: str, **config) -> Tracker:
+def _check_name(name) -> str:
+    if not isinstance(name, str):
+        raise ConfigError(f"a tracker name must be a string, got {type(name).__name__} {name!r}; accepted: "
+                          f"{', '.join(TRACKER_NAMES)}")
+    return name
+
+
+def make_tracker(name: str, *args, **config) -> Tracker:
     """A fresh tracker by name (registry.TRACKERS); keyword arguments override its settings (the
     method's config dataclass fields). Unknown names and settings raise a ConfigError listing the
     accepted ones."""
-    tracker = _builder(name, config)()
+    if args:
+        raise ConfigError(f"make_tracker({name!r}, ...) takes the tracker's settings as keywords (e.g. "
+                          f"warp='homography'), got positional {args!r}")
+    tracker = _builder(_check_name(name), config)()
     tracker.name = name
     return tracker
 
