@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 from hvs_sim.errors import ConfigError, HvsError
-from hvs_sim.outputs import check_output_file, fresh_out_dir, prepare_out_dir
+from hvs_sim.outputs import check_output_file, fresh_out_dir, prepare_out_dir, write_atomic
 
 DEFAULT_TRACKER = "hybrid"
 
@@ -318,7 +318,7 @@ def cmd_bench(args) -> int:
     path = Path(args.out) / "summary.json"
     data = json.loads(path.read_text())
     data["provenance"] = _provenance(args.argv)
-    path.write_text(json.dumps(data, indent=2))
+    write_atomic(path, json.dumps(data, indent=2))
     print(f"results: {args.out}/ (summary.json, table.md, figures)")
     return status
 
@@ -345,7 +345,6 @@ def _apply_suite(args) -> None:
 
 def cmd_bench_compare(args) -> int:
     from hvs_sim.bench.compare import compare, compare_figure, compare_table
-    from hvs_sim.outputs import write_atomic
 
     if len(args.paths) != 2:
         raise ConfigError(f"`bench compare` takes two result folders A B, got {len(args.paths)}: hvs-sim bench compare "

@@ -13,6 +13,7 @@ import numpy as np
 
 from hvs_sim.errors import ConfigError
 from hvs_sim.loop import LoopConfig, RunStats, ServoLoop, StepRecord
+from hvs_sim.outputs import write_atomic
 from hvs_sim.scene.scenarios import Scenario
 
 FIGURE_RISING_OCCLUSION = 0.3  # frames.png's second tile: the first step with more of the target hidden
@@ -91,7 +92,7 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
                 logger.log_summary(_summary(scenario, tracker, stats, logger, interrupted))
             logger.close()
         if json_path and (completed or (interrupted and stats.n)):
-            Path(json_path).write_text(json.dumps(_summary(scenario, tracker, stats, logger, interrupted), indent=2))
+            write_atomic(json_path, json.dumps(_summary(scenario, tracker, stats, logger, interrupted), indent=2))
     summary = _summary(scenario, tracker, stats, logger, False)
     if figures:
         from hvs_sim.viz.figures import run_figures

@@ -53,6 +53,7 @@ from hvs_sim.camera_model import (
     undistort_points,
 )
 from hvs_sim.errors import ConfigError, choice_error
+from hvs_sim.outputs import write_atomic
 from hvs_sim.render.camera import intrinsics
 from hvs_sim.scene.textures import PHOTO_SOURCES, _photo_source, natural_texture, trackability
 from hvs_sim.tracking.frames import roi_center, roi_corners
@@ -861,7 +862,7 @@ def run_natural_bench(config: NaturalBenchConfig, out: Path, progress: bool = Tr
     gen = np.array([metas[k]["generate_s"] for k in metas])
     summary["generation"] = {"sequences": int(gen.size), "median_s": float(np.median(gen)), "max_s": float(gen.max()),
                              "frames_per_sequence": config.frames}
-    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    write_atomic(out / "summary.json", json.dumps(summary, indent=2))
     write_frames_csv(results, out / "frames.csv", ("source", "kind", "seed"))
     (out / "table.md").write_text(natural_table(summary))
     natural_figures(results, metas, config, out)

@@ -10,6 +10,8 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
+from hvs_sim.outputs import write_atomic
+
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
 
 
@@ -82,7 +84,7 @@ def collect_jobs(fn: Callable, jobs: Sequence, config, out: Path, desc: str, uni
     try:
         done.extend(run_jobs(fn, jobs, config.workers, desc, unit, progress))  # keeps what came before an interrupt
     except KeyboardInterrupt:
-        Path(out, "summary.json").write_text(json.dumps({
+        write_atomic(Path(out, "summary.json"), json.dumps({
             "interrupted": True, "completed_jobs": len(done), "total_jobs": len(jobs),
             "completed": [list(r[0]) if isinstance(r[0], tuple) else r[0] for r in done],
             "config": config_json(config)}, indent=2))

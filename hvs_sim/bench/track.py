@@ -19,6 +19,7 @@ from hvs_sim.bench.pool import collect_jobs, config_json, write_frames_csv
 from hvs_sim.bench.sequences import Sequence, make_sequence
 from hvs_sim.camera_model import REALISTIC_PRESET
 from hvs_sim.errors import ConfigError, choice_error
+from hvs_sim.outputs import write_atomic
 from hvs_sim.validate import check_number
 
 # the methods and the hybrid's ablations a default run compares (any name of tracking/registry.py is accepted)
@@ -152,7 +153,7 @@ def run_track_bench(config: TrackBenchConfig, out: Path, progress: bool = True) 
             summary["target_set"][m] = {"all": summarize(target),
                                         "visible_lt_40": summarize(target, lambda r: r["occlusion"] < 0.4)}
         summary["overall"][m] = summarize([results[k][m] for k in results])
-    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    write_atomic(out / "summary.json", json.dumps(summary, indent=2))
     write_frames_csv(results, out / "frames.csv", ("scenario", "mount", "seed"))
     from hvs_sim.viz.figures import track_triads
 

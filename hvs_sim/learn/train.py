@@ -17,6 +17,7 @@ import torch
 from torch import nn
 
 from hvs_sim.errors import ConfigError
+from hvs_sim.outputs import write_atomic
 from hvs_sim.paths import WEIGHTS_DIR
 
 # what the residual regressor's training frames are, written beside its weights (see learn/data.py, augment.py)
@@ -136,7 +137,7 @@ def train_residual(config: ResidualTrainConfig = ResidualTrainConfig(), out_dir:
             "val_mse": val_mse, "val_mse_without_residual": val_base, "val_by_degradation": kinds,
             "history": history, "seconds": round(time.time() - t0, 1), "seeds": "simulator seeds 1000+ (benchmarks use 100-999)",
             "data": RESIDUAL_DATA_NOTE}
-    (out_dir / "residual.json").write_text(json.dumps(meta, indent=2))
+    write_atomic(out_dir / "residual.json", json.dumps(meta, indent=2))
     return meta
 
 
@@ -201,5 +202,5 @@ def train_gru(config: GRUTrainConfig = GRUTrainConfig(), out_dir: Path = WEIGHTS
             "unit_px": UNIT_PX, "train_windows": len(Xt), "val_windows": len(Xv),
             "val_position_error_px_after": {"gru": at(gru_err), "constant_velocity": at(cv_err), "hold": at(hold_err)},
             "history": history, "seconds": round(time.time() - t0, 1), "seeds": "simulator seeds 1000+ (benchmarks use 100-999)"}
-    (out_dir / "gru.json").write_text(json.dumps(meta, indent=2))
+    write_atomic(out_dir / "gru.json", json.dumps(meta, indent=2))
     return meta

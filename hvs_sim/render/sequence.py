@@ -12,6 +12,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from hvs_sim.outputs import write_atomic
 from hvs_sim.render.renderer import GroundTruth, Renderer
 from hvs_sim.scene.scenarios import Scenario
 from hvs_sim.scene.world import Scene
@@ -93,5 +94,5 @@ def write_sequence(scenario: Scenario, out_dir: Path, fmt: str = "mp4", n_frames
         distortion=np.array(scenario.camera.sensor.distortion))
     meta = {"scenario": _json_safe(asdict(scenario)), "frames": total, "format": fmt,
             "peak_occlusion": float(max(r["occlusion"] for r in rows))}
-    (out_dir / "scenario.json").write_text(json.dumps(meta, indent=2, allow_nan=False))
+    write_atomic(out_dir / "scenario.json", json.dumps(meta, indent=2, allow_nan=False))
     return meta
