@@ -145,6 +145,82 @@ def cli_cases(tmp: Path):
         stubbed()
 
 
+def safety_cases(tmp: Path):
+    """Outputs that would destroy inputs, outside methods, sweep specs, hostile files, argument types."""
+    import os
+    import struct
+    import zlib
+
+    import cv2
+
+    from hvs_sim.cli import main
+    from hvs_sim.envs.visual_servo import VisualServoEnv
+    from hvs_sim.sweep import parse_spec, run_sweep
+    from hvs_sim.tracking import make_tracker
+
+    frames = tmp / "frames"
+    frames.mkdir()
+    for k in range(3):
+        cv2.imwrite(str(frames / f"f{k}.png"), np.random.default_rng(k).integers(0, 255, (64, 64, 3), np.uint8))
+    video = tmp / "clip.mp4"
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"mp4v"), 30, (64, 64))
+    for k in range(3):
+        writer.write(cv2.imread(str(frames / f"f{k}.png")))
+    writer.release()
+    used = tmp / "used"
+    used.mkdir()
+    (used / "track.csv").write_text("frame\n")
+    huge = tmp / "huge.png"
+    _, buf = cv2.imencode(".png", np.zeros((8, 8, 3), np.uint8))
+    data = bytearray(buf.tobytes())
+    data[16:24] = struct.pack(">II", 100_000, 100_000)
+    data[29:33] = struct.pack(">I", zlib.crc32(bytes(data[12:29])))
+    huge.write_bytes(bytes(data))
+    fifo = tmp / "pipe.mp4"
+    os.mkfifo(fifo)
+    roi = ["--roi", "10,10,30,30"]
+    for label, argv in {
+        "track --rrd naming an input frame": ["track", str(frames), *roi, "--rrd", str(frames / "f1.png")],
+        "track --rrd naming the input video": ["track", str(video), *roi, "--rrd", str(video), "--out", str(tmp / "o1")],
+        "track its own output video": ["track", str(used / "track.csv"), *roi, "--out", str(used)],
+        "track into a used --out": ["track", str(frames), *roi, "--out", str(used)],
+        "track --rrd equal to --out/track.csv": ["track", str(frames), *roi, "--out", str(tmp / "o2"), "--rrd",
+                                                 str(tmp / "o2" / "track.csv")],
+        "track --rrd a device": ["track", str(frames), *roi, "--out", str(tmp / "o3"), "--rrd", "/dev/null"],
+        "run --json X --rrd X": ["run", "--json", str(tmp / "x.json"), "--rrd", str(tmp / "x.json")],
+        "track a FIFO named .mp4": ["track", str(fifo), *roi, "--out", str(tmp / "o4")],
+        "track a 100 000² PNG header": ["track", str(huge.parent / "hugefolder"), *roi],
+        "run --target-image 100 000² header": ["run", "--target-image", str(huge)],
+        "run --tracker nosuch.mod:make": ["run", "--tracker", "nosuch.mod:make"],
+        "run --controller os:getcwd (not a law)": ["run", "--tracker", "ground_truth", "--controller", "os:getcwd"],
+        "run --tracker json:nothing": ["run", "--tracker", "json:nothing"],
+        "bench servo --methods {x:y}:affine": ["bench", "servo", "--methods", "{x:y}:affine", "--out", str(tmp / "b")],
+        "bench servo --suite quick --seeds 3": ["bench", "servo", "--suite", "quick", "--seeds", "3"],
+        "bench compare with one folder": ["bench", "compare", str(tmp)],
+    }.items():
+        if "hugefolder" in argv[1]:
+            Path(argv[1]).mkdir(exist_ok=True)
+            (Path(argv[1]) / "f0.png").write_bytes(huge.read_bytes())
+        yield "hvs-sim " + label, lambda argv=argv: main(argv)
+    for label, text in {"evaluate = ['no']": 'evaluate = ["no"]', "hold_steps = [2.5]": "hold_steps = [2.5]",
+                        "converge_px = [nan]": "converge_px = [nan]", "gain = [2, 2.0]": "gain = [2, 2.0]",
+                        "tracker = ['nosuch.mod:make']": 'tracker = ["nosuch.mod:make"]'}.items():
+        yield f"sweep spec {label}", lambda text=text: parse_spec(f'kind = "servo"\n[axes]\n{text}\n')
+    grid = parse_spec('kind = "servo"\n[axes]\nseed = [' + ", ".join(map(str, range(200))) + "]\ngain = ["
+                      + ", ".join(str(1 + k / 100) for k in range(100)) + "]\n")
+    yield "sweep of 20 000 tasks", lambda: run_sweep(grid, tmp / "grid", progress=False)
+    yield "make_tracker(['hybrid'])", lambda: make_tracker(["hybrid"])
+    yield "make_tracker('hybrid', 5)", lambda: make_tracker("hybrid", 5)
+    env = VisualServoEnv(width=96, height=72)
+    yield "env.render() before reset", env.render
+    yield "env.reset(seed=True)", lambda: env.reset(seed=True)
+    yield "env.reset(seed=-3)", lambda: env.reset(seed=-3)
+    env.reset(seed=0)
+    yield "env.step(string action)", lambda: env.step(["0.1"] * 6)
+    yield "env.step(complex action)", lambda: env.step(np.full(6, 0.1 + 0.1j))
+    yield "track --roi with Arabic-Indic digits", lambda: main(["track", str(frames), "--roi", "١٠,10,30,30"])
+
+
 def _stub_cli():
     """Replace the long work behind the commands (as tests/test_fuzz.py does); returns an undo."""
     from hvs_sim import runner
@@ -164,8 +240,10 @@ def _stub_cli():
     track.run_track_bench = bench({"occlusion_scenarios": {}, "target_set": {}})
     servo.run_servo_bench = bench({"results": {}})
     natural.run_natural_bench = bench({"overall": {}, "visible_lt_40": {}, "timing": {}, "per_kind": {}})
-    brief = dict.fromkeys(("converged", "steps_to_converge", "final_error_px", "max_error_px_during_occlusion",
-                           "lost_steps", "predict_steps", "fault_steps", "steps_per_second"), 0)
+    brief = dict.fromkeys(("converged", "held_to_end", "steps_to_converge", "final_error_px",
+                           "max_error_px_during_occlusion", "final_pose_error_mm", "final_pose_error_deg",
+                           "controlled_dofs", "lost_steps", "predict_steps", "fault_steps", "steps_per_second"), 0)
+    brief.update(not_converged_because="image 1.00 px > 0.5 px", faults=[])
     from hvs_sim.loop import loop_tracker
 
     def run_episode(scenario, tracker, *a, tracker_settings=None, **k):  # the checks it makes before any scene
@@ -190,7 +268,7 @@ def main() -> None:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for area, cases in (("trackers", tracker_cases()), ("control", control_cases()), ("env", env_cases()),
-                            ("cli", cli_cases(Path(tmp)))):
+                            ("cli", cli_cases(Path(tmp))), ("outputs, plugins, files", safety_cases(Path(tmp)))):
             for label, fn in cases:
                 outcome, detail = classify(fn)
                 rows.append({"area": area, "input": label, "outcome": outcome, "detail": detail})
