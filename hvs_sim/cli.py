@@ -10,7 +10,7 @@ import shutil
 import sys
 from pathlib import Path
 
-from hvs_sim.errors import ConfigError, HvsError
+from hvs_sim.errors import ConfigError, HvsError, OutputError
 from hvs_sim.outputs import check_output_file, fresh_out_dir, prepare_out_dir, write_atomic
 
 DEFAULT_TRACKER = "hybrid"
@@ -90,7 +90,8 @@ def cmd_scene(args) -> int:
     bgr = cv2.cvtColor(frame, cv2.COLOR_RGB2BGR)
     cv2.polylines(bgr, [np.round(gt.corners * 16).astype(np.int32)], True, (0, 255, 0), 1, cv2.LINE_AA, shift=4)
     cv2.drawMarker(bgr, tuple(np.round(gt.center).astype(int)), (0, 255, 0), cv2.MARKER_CROSS, 12, 1)
-    cv2.imwrite(str(out / "preview.png"), bgr)
+    if not cv2.imwrite(str(out / "preview.png"), bgr):
+        raise OutputError(f"could not write {out / 'preview.png'} (disk full or folder not writable)")
     print(json.dumps({"out": str(out), "frames": meta["frames"], "peak_occlusion": round(meta["peak_occlusion"], 3)}))
     return 0
 

@@ -23,6 +23,10 @@ class RenderError(HvsError, RuntimeError):
     """No headless OpenGL back-end could be started."""
 
 
+class OutputError(HvsError, OSError):
+    """An output could not be written (a full disk, a folder gone); the file it would have replaced is kept."""
+
+
 class WeightsError(HvsError, RuntimeError):
     """A weights file is missing, corrupt or does not match the network."""
 

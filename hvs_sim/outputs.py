@@ -5,7 +5,7 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
-from hvs_sim.errors import ConfigError
+from hvs_sim.errors import ConfigError, OutputError
 
 
 def prepare_out_dir(out, flag: str = "--out") -> Path:
@@ -66,6 +66,9 @@ def write_atomic(path, text: str) -> None:
     try:
         tmp.write_text(text)
         os.replace(tmp, path)
+    except OSError as exc:  # a full disk, a folder gone: say which file, keep the one that was there
+        raise OutputError(f"could not write {path} ({exc.strerror or exc}); "
+                          + ("the previous complete file is kept" if path.exists() else "nothing was written")) from None
     finally:
         tmp.unlink(missing_ok=True)
 

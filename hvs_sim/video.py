@@ -330,6 +330,7 @@ class TrackResult:
     modes: Counter = field(default_factory=Counter)
     update_ms: list[float] = field(default_factory=list)  # updates only: init builds the template
     interrupted: bool = False
+    expected: int | None = None  # frames the source says it holds (a video's header), when it says
 
     @property
     def frames(self) -> int:
@@ -346,6 +347,9 @@ class TrackResult:
         state = "interrupted after" if self.interrupted else "tracked"
         lines = [f"{state} {self.frames} frames with {self.tracker} ({modes}); median update {ms}",
                  "outputs: " + ", ".join(map(str, self.outputs))]
+        if self.expected is not None and self.frames < self.expected and not self.interrupted:
+            lines.append(f"note: the video's header says {self.expected} frames; only {self.frames} could be decoded "
+                         "(a truncated or damaged file)")
         return "\n".join(lines)
 
 
@@ -365,7 +369,7 @@ def track_footage(path, roi, tracker: str = DEFAULT_TRACKER, out="out/track", rr
         rrd = prepare_rrd(rrd)
         method = make_any_tracker(tracker, **(settings or {}))
         outputs = TrackOutputs(out, source.size, source.fps, rrd)
-        result = TrackResult(tracker, outputs.paths)
+        result = TrackResult(tracker, outputs.paths, expected=source.count)
         bar = tqdm(total=source.count, unit="frame", desc=f"track/{tracker}", disable=not progress)
         try:
             result.interrupted = _run(method, roi, source, outputs, result, bar)

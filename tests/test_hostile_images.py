@@ -74,3 +74,41 @@ def test_track_refuses_a_fifo_named_like_a_video(tmp_path, capsys):
     os.mkfifo(fifo)
     assert main(["track", str(fifo), "--roi", "0,0,30,30", "--out", str(tmp_path / "out")]) == 2
     assert "not a regular file" in capsys.readouterr().err
+
+
+def test_a_failed_write_names_the_file_and_keeps_the_previous_one(tmp_path, monkeypatch):
+    import errno
+    from pathlib import Path
+
+    from hvs_sim.errors import OutputError
+    from hvs_sim.outputs import write_atomic
+
+    target = tmp_path / "summary.json"
+    write_atomic(target, "complete")
+    real = Path.write_text
+
+    def full_disk(self, *a, **k):
+        real(self, "half")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(Path, "write_text", full_disk)
+    with pytest.raises(OutputError, match="summary.json .No space left on device.; the previous complete file is kept"):
+        write_atomic(target, "new")
+    monkeypatch.undo()
+    assert target.read_text() == "complete" and [p.name for p in tmp_path.iterdir()] == ["summary.json"]
+
+
+def test_track_says_when_a_video_decodes_fewer_frames_than_its_header(tmp_path, capsys):
+    path = tmp_path / "clip.avi"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 30, (96, 96))
+    rng = np.random.default_rng(0)
+    base = cv2.GaussianBlur(rng.integers(0, 255, (96, 96, 3), np.uint8), (0, 0), 2)
+    for k in range(30):
+        writer.write(np.roll(base, k, axis=1))
+    writer.release()
+    data = path.read_bytes()
+    cut = tmp_path / "cut.avi"
+    cut.write_bytes(data[: len(data) * 9 // 10])  # a truncated download: the header still says 30 frames
+    assert main(["track", str(cut), "--roi", "30,30,40,40", "--out", str(tmp_path / "o"), "--tracker", "ecc"]) == 0
+    out = capsys.readouterr().out
+    assert "note: the video's header says 30 frames; only 27 could be decoded" in out

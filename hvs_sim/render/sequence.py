@@ -12,6 +12,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from hvs_sim.errors import OutputError
 from hvs_sim.outputs import write_atomic
 from hvs_sim.render.renderer import GroundTruth, Renderer
 from hvs_sim.scene.scenarios import Scenario
@@ -75,7 +76,10 @@ def write_sequence(scenario: Scenario, out_dir: Path, fmt: str = "mp4", n_frames
         if writer is not None:
             writer.write(bgr)
         else:
-            cv2.imwrite(str(out_dir / "frames" / f"{gt.frame:05d}.png"), bgr)
+            path = out_dir / "frames" / f"{gt.frame:05d}.png"
+            if not cv2.imwrite(str(path), bgr):  # a full disk, a folder gone: never report frames not written
+                raise OutputError(f"could not write frame {path} (disk full or folder not writable); frames up to "
+                                  f"{gt.frame - 1} are written")
         rows.append(gt.as_row())
         cams.append(gt.camera.matrix())
         joints.append(gt.joint_positions)
