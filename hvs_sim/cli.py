@@ -10,10 +10,9 @@ import shutil
 import sys
 from pathlib import Path
 
+from hvs_sim.cliargs import DEFAULT_TRACKER, add_settings_option, parse_settings
 from hvs_sim.errors import ConfigError, HvsError, OutputError
 from hvs_sim.outputs import check_output_file, fresh_out_dir, prepare_out_dir, write_atomic
-
-DEFAULT_TRACKER = "hybrid"
 
 
 def _scenario_from_args(args):
@@ -155,13 +154,6 @@ def cmd_run(args) -> int:
     return 0
 
 
-def add_settings_option(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                   help="a tracker setting (a field of its config; repeat for more), e.g. --set "
-                        "residual_weights=out/weights/residual.pt --set gru_weights=out/weights/gru.pt; an unknown "
-                        "key is an error that lists the accepted ones")
-
-
 def parse_start_offset(text: str) -> tuple[float, ...]:
     """"dx,dy,dz,roll,pitch,yaw" (metres, degrees) → the scenario's start_offset (metres, radians)."""
     try:
@@ -171,20 +163,6 @@ def parse_start_offset(text: str) -> tuple[float, ...]:
     if len(values) != 6 or not all(math.isfinite(v) for v in values):
         raise ConfigError(f"--start-offset takes six numbers dx,dy,dz,roll,pitch,yaw (metres, degrees), got {text!r}")
     return tuple(values[:3]) + tuple(math.radians(v) for v in values[3:])
-
-
-def parse_settings(items: list[str]) -> dict:
-    """KEY=VALUE strings → make_tracker keywords; VALUE is read as JSON (numbers, true/false, null) or else text."""
-    out = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip():
-            raise ConfigError(f"--set takes KEY=VALUE, got {item!r}")
-        try:
-            out[key.strip()] = json.loads(value)
-        except json.JSONDecodeError:
-            out[key.strip()] = value
-    return out
 
 
 def _check_viewer() -> None:
@@ -677,7 +655,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="out/demo", help="folder for run.json, run.rrd and the figures")
     p.set_defaults(func=cmd_demo)
 
-    from hvs_sim.video import add_track_parser  # imported here: video.py imports DEFAULT_TRACKER from this module
+    from hvs_sim.video import add_track_parser  # here, not at the top: it loads OpenCV and the trackers
     add_track_parser(sub)
     return parser
 

@@ -92,8 +92,10 @@ def check_apart(inputs, outputs: dict[str, Path | None]) -> None:
         if path is None:
             continue
         real = Path(path).resolve()
+        if real.is_dir():
+            raise ConfigError(f"{what} {path} is a folder; give a file name")
         if real.exists() and not real.is_file():
-            raise ConfigError(f"{what} {path} exists and is not a regular file; give a new file name")
+            raise ConfigError(f"{what} {path} exists and is not a regular file (a device, a pipe); give a new file name")
         for inp in ins:
             if real == inp or inp in real.parents:
                 where = "is" if real == inp else "lies inside"

@@ -46,7 +46,7 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
-from hvs_sim.cli import DEFAULT_TRACKER, add_settings_option, parse_settings
+from hvs_sim.cliargs import DEFAULT_TRACKER, add_settings_option, parse_settings
 from hvs_sim.errors import ConfigError, InputError
 from hvs_sim.outputs import check_apart, check_output_file, fresh_out_dir, temporary_beside
 from hvs_sim.plugins import make_any_tracker

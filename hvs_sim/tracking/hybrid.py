@@ -50,11 +50,11 @@ from hvs_sim.tracking.feature_lk import LKConfig
 from hvs_sim.tracking.occlusion import OcclusionReference, aligned_patch
 from hvs_sim.tracking.predictors import PREDICTORS, make_predictor
 from hvs_sim.tracking.sources import (
+    HybridState,
     KeyframeAnchorSource,
     Kind,
     MotionSource,
     PredictorSource,
-    Proposal,
     SceneMotionSource,
 )
 from hvs_sim.tracking.trackability import check_trackable
@@ -151,64 +151,6 @@ class HybridConfig:
                               f"{self.reacquire_px}, {self.reacquire_drift_px}, {self.reacquire_margin}")
         if not isinstance(self.reacquire_frames, int) or self.reacquire_frames < 1:
             raise ConfigError(f"reacquire_frames must be an int >= 1, got {self.reacquire_frames!r}")
-
-
-@dataclass
-class HybridState:
-    """What changes from frame to frame. Changed only by the four transitions below, each of which
-    tells every motion source what happened."""
-
-    center0: np.ndarray  # template centre at init (full-res px)
-    A: np.ndarray  # the current estimate (full-res frame-from-template)
-    keyframe: tuple[np.ndarray, np.ndarray]  # (work image, full-res warp) of the last aligned or re-anchored frame
-    frame_index: int = 0
-    predict_run: int = 0  # consecutive frames with neither an alignment nor a measurement
-    drift_run: int = 0  # frames the predictor alone has moved the estimate since it was last anchored
-    since_aligned: int = 0  # frames since the target was last aligned
-    # a far re-acquisition awaiting confirmation: its offset from the estimate, and on how many
-    # consecutive frames it was seen
-    jump: np.ndarray | None = None
-    jump_frames: int = 0
-
-    def jump_seen(self, offset: np.ndarray | None, tolerance_px: float) -> int:
-        """Record this frame's far re-acquisition candidate (None: there is none); returns on how
-        many consecutive frames it has been seen, agreeing within `tolerance_px`."""
-        if offset is None:
-            self.jump, self.jump_frames = None, 0
-            return 0
-        agrees = self.jump is not None and np.linalg.norm(offset - self.jump) <= tolerance_px
-        self.jump, self.jump_frames = offset, (self.jump_frames + 1 if agrees else 1)
-        return self.jump_frames
-
-    def aligned(self, work: np.ndarray, A: np.ndarray, sources: list[MotionSource]) -> None:
-        self.A = A
-        self.predict_run = self.drift_run = self.since_aligned = 0
-        self.jump, self.jump_frames = None, 0
-        self.keyframe = (work, A)
-        for s in sources:
-            s.on_aligned(work, self)
-
-    def measured(self, work: np.ndarray, proposal: Proposal, sources: list[MotionSource]) -> None:
-        self.A = proposal.A
-        self.predict_run = 0
-        self.since_aligned += 1
-        if proposal.kind == Kind.ABSOLUTE:  # the chain goes on from here
-            self.drift_run = 0
-            self.keyframe = (work, proposal.A)
-        for s in sources:
-            s.on_measured(work, self, proposal)
-
-    def predicted(self, work: np.ndarray, A: np.ndarray, sources: list[MotionSource]) -> None:
-        self.A = A
-        self.predict_run += 1
-        self.drift_run += 1
-        self.since_aligned += 1
-        for s in sources:
-            s.on_predicted(work, self)
-
-    def lost(self, work: np.ndarray, sources: list[MotionSource]) -> None:
-        """Nothing trustworthy: the estimate stays where it is."""
-        self.predicted(work, self.A, sources)
 
 
 class HybridTracker(Tracker):

@@ -9,7 +9,7 @@ proposal (ViSP composes its template trackers the same way: parts with one inter
 - `PredictorSource`: the motion predictor's extrapolation (GRU, constant velocity, hold), bounded:
   after `max_frames` unmeasured frames it proposes `lost`.
 
-Sources read the tracker's `HybridState` and never change it; `HybridState`'s transitions (hybrid.py)
+Sources read the tracker's `HybridState` and never change it; `HybridState`'s transitions (below)
 tell them what happened through `on_aligned`, `on_measured` and `on_predicted`.
 """
 
@@ -27,7 +27,6 @@ from hvs_sim.tracking.warp import matrix_to_pose, translate
 
 if TYPE_CHECKING:  # pragma: no cover
     from hvs_sim.tracking.aligner import Aligner
-    from hvs_sim.tracking.hybrid import HybridState
 
 
 class Kind:
@@ -185,3 +184,61 @@ class PredictorSource:
 
     def on_predicted(self, work, state):
         pass
+
+
+@dataclass
+class HybridState:
+    """What changes from frame to frame. Changed only by the four transitions below, each of which
+    tells every motion source what happened."""
+
+    center0: np.ndarray  # template centre at init (full-res px)
+    A: np.ndarray  # the current estimate (full-res frame-from-template)
+    keyframe: tuple[np.ndarray, np.ndarray]  # (work image, full-res warp) of the last aligned or re-anchored frame
+    frame_index: int = 0
+    predict_run: int = 0  # consecutive frames with neither an alignment nor a measurement
+    drift_run: int = 0  # frames the predictor alone has moved the estimate since it was last anchored
+    since_aligned: int = 0  # frames since the target was last aligned
+    # a far re-acquisition awaiting confirmation: its offset from the estimate, and on how many
+    # consecutive frames it was seen
+    jump: np.ndarray | None = None
+    jump_frames: int = 0
+
+    def jump_seen(self, offset: np.ndarray | None, tolerance_px: float) -> int:
+        """Record this frame's far re-acquisition candidate (None: there is none); returns on how
+        many consecutive frames it has been seen, agreeing within `tolerance_px`."""
+        if offset is None:
+            self.jump, self.jump_frames = None, 0
+            return 0
+        agrees = self.jump is not None and np.linalg.norm(offset - self.jump) <= tolerance_px
+        self.jump, self.jump_frames = offset, (self.jump_frames + 1 if agrees else 1)
+        return self.jump_frames
+
+    def aligned(self, work: np.ndarray, A: np.ndarray, sources: list[MotionSource]) -> None:
+        self.A = A
+        self.predict_run = self.drift_run = self.since_aligned = 0
+        self.jump, self.jump_frames = None, 0
+        self.keyframe = (work, A)
+        for s in sources:
+            s.on_aligned(work, self)
+
+    def measured(self, work: np.ndarray, proposal: Proposal, sources: list[MotionSource]) -> None:
+        self.A = proposal.A
+        self.predict_run = 0
+        self.since_aligned += 1
+        if proposal.kind == Kind.ABSOLUTE:  # the chain goes on from here
+            self.drift_run = 0
+            self.keyframe = (work, proposal.A)
+        for s in sources:
+            s.on_measured(work, self, proposal)
+
+    def predicted(self, work: np.ndarray, A: np.ndarray, sources: list[MotionSource]) -> None:
+        self.A = A
+        self.predict_run += 1
+        self.drift_run += 1
+        self.since_aligned += 1
+        for s in sources:
+            s.on_predicted(work, self)
+
+    def lost(self, work: np.ndarray, sources: list[MotionSource]) -> None:
+        """Nothing trustworthy: the estimate stays where it is."""
+        self.predicted(work, self.A, sources)
