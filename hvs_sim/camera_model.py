@@ -317,6 +317,38 @@ class SensorState:
         return (electrons + np.sqrt(var) * z) / np.float32(fw)
 
 
+def steady_gain(model: SensorModel, linear: np.ndarray) -> float:
+    """The auto-exposure gain a still view settles at (its target over the metered luminance, within the range);
+    1 without auto-exposure."""
+    if model.ae_target <= 0:
+        return 1.0
+    lo, hi = model.ae_gain_range
+    return float(np.clip(model.ae_target / max(_meter(linear), MIN_METERED), lo, hi))
+
+
+def output_variance(model: SensorModel, linear: np.ndarray, gain: float) -> np.ndarray:
+    """Per pixel and channel, the variance (in 8-bit levels²) of the frame the camera delivers for a still view of
+    linear radiance `linear`: shot and read noise through the gain and the slope of the sRGB curve, the 12-bit ADC's
+    and the 8-bit output's quantisation (uniform, LSB²/12). Saturated pixels carry no information: inf. JPEG is not
+    in it (its error depends on the picture: measure it on the frame, `jpeg_variance`)."""
+    v = np.asarray(linear, np.float64) * gain
+    fw = model.white_e if model.white_e < math.inf else 1.0
+    shot = (np.asarray(linear, np.float64) * fw if model.white_e < math.inf else 0.0)
+    var_v = gain ** 2 * (shot + model.read_noise_e ** 2) / fw ** 2  # linear units (white = 1), after the gain
+    vs = np.clip(v, 1e-6, 1.0)
+    slope = 255.0 * np.where(vs <= 0.0031308, 12.92, 1.055 / 2.4 * np.power(vs, 1 / 2.4 - 1))  # levels per unit
+    adc = (slope / (LINEAR_LEVELS - 1)) ** 2 / 12.0
+    out = slope ** 2 * var_v + adc + 1.0 / 12.0
+    return np.where(v >= 1.0, np.inf, out)
+
+
+def jpeg_variance(frame: np.ndarray, quality: int) -> float:
+    """The variance (8-bit levels²) JPEG at `quality` adds to this frame, measured on it; 0 when off."""
+    if not quality:
+        return 0.0
+    return float(np.var(jpeg(frame, quality).astype(np.float64) - frame.astype(np.float64)))
+
+
 def encode_jpeg(frame: np.ndarray, quality: int) -> np.ndarray:
     """An RGB uint8 frame as JPEG bytes (4:2:0, as cameras and video streams do; OpenCV's libjpeg-turbo)."""
     ok, buf = cv2.imencode(".jpg", cv2.cvtColor(frame, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, int(quality)])

@@ -433,6 +433,38 @@ def cmd_sweep(args) -> int:
     return 0
 
 
+def cmd_budget(args) -> int:
+    """`hvs-sim budget`: the pose bound for each camera, a table, a JSON and a figure against standoff and size."""
+    from hvs_sim.bench import budget as b
+    from hvs_sim.scene.flag_art import FLAG_NAMES
+    from hvs_sim.scene.textures import NATURAL_TEXTURES
+
+    scene = {}
+    if args.target and args.target_image:
+        raise ConfigError("give --target NAME or --target-image PATH, not both")
+    if args.target:
+        if args.target not in FLAG_NAMES + NATURAL_TEXTURES:
+            raise ConfigError(f"unknown target {args.target!r}; accepted: a flag ({', '.join(FLAG_NAMES)}) or a natural "
+                              f"texture ({', '.join(NATURAL_TEXTURES)}); or --target-image PATH")
+        scene["target_flag" if args.target in FLAG_NAMES else "target_texture"] = args.target
+    if args.target_image:
+        scene.update(target_texture=None, target_image=args.target_image)
+    if args.target_width is not None:
+        scene["target_width"] = args.target_width
+    out = fresh_out_dir(args.out, args.overwrite, ("budget.json", "budget.md", "budget.png"))
+    rows = [b.budget(cam, args.standoff, **scene) for cam in dict.fromkeys(args.camera)]
+    text = b.table(rows)
+    curves = b.figure(rows[0].camera, out / "budget.png", **{k: v for k, v in scene.items() if k != "target_width"})
+    write_atomic(out / "budget.md", text)
+    write_atomic(out / "budget.json", json.dumps({"rows": [r.row() for r in rows], "figure_camera": rows[0].camera,
+                                                  "figure_mm_by_width": curves, "note": b.__doc__.strip()}, indent=2))
+    print(text, end="")
+    print("A bound: no unbiased estimator reading these pixels does better; biases (exposure changes between the goal "
+          "image and the frames, the target's relief) come on top.")
+    print(f"results: {out}/ (budget.json, budget.md, budget.png)")
+    return 0
+
+
 def cmd_scenes(args) -> int:
     """List what a scene can be built from: scenario presets, camera presets, wall sets, targets."""
     from hvs_sim.camera_model import SENSOR_PRESETS
@@ -646,6 +678,19 @@ def build_parser() -> argparse.ArgumentParser:
                    help="refuse a spec whose grid has more tasks than this, before building it (default: "
                         "hvs_sim.sweep.MAX_TASKS, 10 000)")
     p.set_defaults(func=cmd_sweep)
+
+    p = sub.add_parser("budget", formatter_class=HelpFormatter,
+                       help="what accuracy 6-DOF servoing can reach: the Cramér–Rao bound on the camera's pose at the "
+                            "goal for a camera, a target and a standoff (hvs_sim/bench/budget.py)")
+    p.add_argument("--camera", nargs="+", default=["phone_handheld"], choices=SENSOR_NAMES, metavar="NAME",
+                   help=f"camera presets: {', '.join(SENSOR_NAMES)} (default phone_handheld)")
+    p.add_argument("--target", default=None, help="a flag or natural texture name (default: the scenes' star_field)")
+    p.add_argument("--target-image", default=None, help="any PNG/JPEG file as the target")
+    p.add_argument("--target-width", type=float, default=None, help="the target's width in metres (default 0.15)")
+    p.add_argument("--standoff", type=float, default=0.8, help="the camera's distance to the target at the goal (m)")
+    p.add_argument("--out", default="out/budget", help="folder for budget.json, budget.md and budget.png")
+    p.add_argument("--overwrite", action="store_true", help="replace earlier results in a non-empty --out")
+    p.set_defaults(func=cmd_budget)
 
     p = sub.add_parser("scenes", formatter_class=HelpFormatter, help="list scenario presets, camera presets, wall sets and targets")
     p.add_argument("--list", action="store_true", help="list them (the default)")

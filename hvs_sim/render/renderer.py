@@ -116,6 +116,11 @@ class Renderer:
         self._last = (key, frame)
         return frame.copy()
 
+    def linear_light(self) -> np.ndarray:
+        """The light this frame's exposure collects (H×W×3 linear float32), before noise, gain, the sRGB curve and
+        JPEG: what the camera model's noise is computed on (bench/budget.py)."""
+        return self._exposure()
+
     def _exposure(self) -> np.ndarray:
         """The light the sensor collects over the exposure (H×W×3 linear float32): sub-frame renders averaged
         (motion blur, the lights' flicker and dimming), then the lens distortion."""
