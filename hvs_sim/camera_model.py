@@ -201,6 +201,11 @@ SENSOR_PRESETS: Mapping[str, SensorModel] = MappingProxyType({
         name="phone_handheld", exposure_ms=8.0, blur_max_samples=6, white_e=800.0, read_noise_e=3.0,
         ae_target=0.18, ae_time_s=0.25, ae_drift=0.08, ae_drift_hz=0.12, light_dim=0.25, light_dim_period_s=5.0,
         jpeg_quality=60),
+    # a machine-vision camera on a robot's wrist in a lit cell: exposure and gain fixed when the goal is taught (no
+    # auto-exposure), a short global-shutter exposure, large pixels (many electrons), lossless transfer, steady
+    # lights, a calibrated (undistorted) lens
+    "robot_cell": SensorModel(
+        name="robot_cell", exposure_ms=2.0, blur_max_samples=3, white_e=12000.0, read_noise_e=5.0, jpeg_quality=0),
     # dim room: few electrons, long exposure, high gain, a flickering tube: blur and noise dominate
     "low_light": SensorModel(
         name="low_light", exposure_ms=33.0, blur_max_samples=8, white_e=150.0, read_noise_e=4.0,

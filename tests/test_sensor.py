@@ -33,7 +33,7 @@ def renderer_for(sensor, scenario="clear", seed=0, size=(320, 240), **overrides)
 
 
 def test_presets_are_valid_and_ideal_is_identity():
-    assert set(SENSOR_NAMES) == {"ideal", "webcam", "phone_handheld", "low_light"}
+    assert set(SENSOR_NAMES) == {"ideal", "webcam", "phone_handheld", "robot_cell", "low_light"}
     assert SENSOR_PRESETS["ideal"].is_ideal and not any(SENSOR_PRESETS[n].is_ideal for n in SENSOR_NAMES[1:])
     r = renderer_for("ideal", "walk_by", **STILL)
     for _ in range(80):
