@@ -645,7 +645,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "like a hand-held phone, with a drawn person (hvs_sim/bench/natural.py)")
     p.add_argument("--scenarios", nargs="+", default=None,
                    metavar="NAME", help=f"scenarios: {', '.join(SCENARIO_NAMES)} (default: clear walk_by pause partial "
-                   "two_people for track, walk_by pause for servo); with --imagery natural the kinds: clear walk_by pause "
+                   "two_people for track, clear walk_by pause for servo); with --imagery natural the kinds: clear walk_by pause "
                    "partial (default all)")
     p.add_argument("--sources", nargs="+", default=None, metavar="NAME",
                    help="--imagery natural only: pictures (default all of hvs_sim.bench.natural.NATURAL_SOURCES)")
@@ -654,7 +654,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seeds", nargs="+", type=int, default=None,
                    help="sequence seeds (track; default 100 101 102, natural 500 501) or episode seeds (servo)")
     p.add_argument("--episodes", type=int, default=None,
-                   help="servo only: episodes per scenario and tracker, seeds 200, 201, … (default 10)")
+                   help="servo only: episodes per scenario and tracker, seeds 200, 201, … (default 20)")
     p.add_argument("--camera", default=None, choices=SENSOR_NAMES,
                    help=f"camera model of every sequence/episode (default {REALISTIC_PRESET}; ideal = clean renders)")
     p.add_argument("--people", default=None, choices=PEOPLE_STYLES,
