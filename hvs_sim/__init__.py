@@ -14,9 +14,12 @@ __all__ = ["ConfigError", "HvsError", "InputError", "RenderError", "StateError",
 def _register_envs() -> None:
     from gymnasium.envs.registration import register, registry
 
-    if "hvs_sim/VisualServo-v0" not in registry:
+    if "hvs_sim/VisualServo-v0" not in registry:  # v0: joint angles wrapped to [−π, π), as first released
         register(id="hvs_sim/VisualServo-v0", entry_point="hvs_sim.envs.visual_servo:VisualServoEnv",
                  max_episode_steps=300)
+    if "hvs_sim/VisualServo-v1" not in registry:  # v1: joints as (sin, cos, velocity)
+        register(id="hvs_sim/VisualServo-v1", entry_point="hvs_sim.envs.visual_servo:VisualServoEnv",
+                 max_episode_steps=300, kwargs={"joints": "sincos"})
 
 
 _register_envs()

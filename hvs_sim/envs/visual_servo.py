@@ -1,14 +1,24 @@
-"""`hvs_sim/VisualServo-v0`: drive the wrist camera with a bounded twist to centre the target.
+"""`hvs_sim/VisualServo-v1` (and `-v0`): drive the wrist camera with a bounded twist to centre the target.
 
-Observation: {"image": H×W×3 uint8 wrist-camera frame, "joints": joint angles (wrapped) and velocities}.
+Observation (`obs_mode`): "image" {"image": H×W×3 uint8 wrist-camera frame, "joints"}; "image+goal" adds "goal" (the
+goal image: the camera at the reference pose, people left out) and "desired" (s*, the target's corners there, 4×2
+pixels); "image+goal+depth" adds "depth" (H×W float32 metres along the optical axis); "features" has no image:
+"features" (the target's corners now, 4×2 pixels: the truth, or a tracker's with `tracker=`), "desired" and "joints".
+"joints": v1 gives (sin q, cos q, q̇) (`joints="sincos"`), which no small motion flips; v0 the angles wrapped to
+[−π, π) and q̇ (`joints="wrapped"`), as before.
 Action: a camera twist (vx, vy, vz, wx, wy, wz) in [−1, 1]⁶, scaled by max_linear / max_angular,
 or with action_type="joint" joint velocities in [−1, 1]ⁿ scaled by the joint velocity limits.
 Reward: minus the ground-truth mean corner error to the desired corners, in pixels of the
 observation (`reward="pixels"`, the default) or divided by the image diagonal (`reward="normalised"`,
 about −0.5 … 0, easier on a value function).
 Terminated when that error stays below `converge_px` for `hold_steps` steps.
-info: error_px, occlusion (true share of the target hidden), converged, held_steps. There is no
-tracker inside: the policy sees the image, the reward comes from ground truth.
+info: error_px, occlusion (true share of the target hidden), converged and is_success (the same: read by SB3, HER and
+gymnasium-robotics), held_steps, K (3×3 intrinsics), camera_pose (4×4, world from camera, OpenCV axes); with a
+tracker, tracker_mode and tracker_fault.
+render(): "rgb_array" a third-person view of the scene (arm, wall, people; `render_size`), "depth_array" the wrist
+camera's depth.
+reset(options=...): any of "scenario", "start_offset" ((dx, dy, dz, roll) or (dx, dy, dz, roll, pitch, yaw), m and
+rad), "camera", "people" for that episode; other keys are refused by name.
 
 Defaults worth knowing: scenario "clear" (no person; pass e.g. scenario="walk_by"), a 160×120
 image, the ideal camera. An action must have the action space's shape and finite values (a NaN
@@ -27,10 +37,17 @@ import numpy as np
 from gymnasium import spaces
 
 from hvs_sim.control.arm import ArmDriver
-from hvs_sim.errors import InputError, StateError, choice_error
+from hvs_sim.errors import ConfigError, InputError, StateError, choice_error
 from hvs_sim.render.camera import CameraPose
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 from hvs_sim.validate import check_number
+
+OBS_MODES = ("image", "image+goal", "image+goal+depth", "features")
+JOINT_OBS = ("wrapped", "sincos")
+RESET_OPTIONS = ("scenario", "start_offset", "camera", "people")
+RENDER_MODES = ("rgb_array", "depth_array")
+PIXEL_BOUND = 1e4  # corner coordinates in the observation: pixels, far outside any image
+MAX_DEPTH_M = 10.0  # the scene's far clip plane (scene/world.py): the depth observation's bound
 
 
 class ResetNeededError(StateError, gym.error.ResetNeeded):
@@ -43,16 +60,31 @@ MIN_IMAGE = 64  # pixels, as CameraConfig accepts
 
 
 class VisualServoEnv(gym.Env):
-    metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "render_fps": 30}
+    metadata: ClassVar[dict] = {"render_modes": list(RENDER_MODES), "render_fps": 30}
 
     def __init__(self, scenario: str = "clear", render_mode: str | None = None, action_type: str = "twist",
                  width: int = 160, height: int = 120, max_offset: float = 0.05, max_roll: float = 0.15,
                  converge_px: float = 1.0, hold_steps: int = 5, max_linear: float = 0.1, max_angular: float = 0.5,
-                 camera: str = "ideal", reward: str = "pixels"):
+                 camera: str = "ideal", reward: str = "pixels", obs_mode: str = "image", joints: str = "wrapped",
+                 tracker: str = "ground_truth", render_size: tuple[int, int] = (480, 360)):
         """camera: the camera model of the observations (hvs_sim.camera_model.SENSOR_PRESETS), e.g.
-        "phone_handheld" for exposure changes, blur, noise and JPEG as a real camera gives them."""
-        if render_mode not in (None, "rgb_array"):
-            raise choice_error("render_mode", render_mode, ["rgb_array", "None"])
+        "phone_handheld" for exposure changes, blur, noise and JPEG as a real camera gives them.
+        tracker: with obs_mode "features", whose corners the observation holds: "ground_truth", a tracker of the
+        registry or an outside one (hvs_sim.plugins), initialised on the episode's first frame."""
+        if render_mode not in (None, *RENDER_MODES):
+            raise choice_error("render_mode", render_mode, [*RENDER_MODES, "None"])
+        if obs_mode not in OBS_MODES:
+            raise choice_error("obs_mode", obs_mode, OBS_MODES)
+        if joints not in JOINT_OBS:
+            raise choice_error("joints", joints, JOINT_OBS)
+        if tracker != "ground_truth":
+            if obs_mode != "features":
+                raise ConfigError(f"tracker={tracker!r} fills the 'features' observation: give obs_mode='features'")
+            from hvs_sim.plugins import check_any_tracker
+
+            check_any_tracker(tracker)
+        for name, v in zip(("render width", "render height"), render_size, strict=True):
+            check_number(name, v, 64, 4096, integer=True)
         if action_type not in ACTION_TYPES:
             raise choice_error("action_type", action_type, ACTION_TYPES)
         if reward not in REWARDS:
@@ -67,29 +99,101 @@ class VisualServoEnv(gym.Env):
         check_number("max_angular (rad/s)", max_angular, 0, lo_open=True)
         self.reward_scale = 1.0 / float(np.hypot(width, height)) if reward == "normalised" else 1.0
         self.render_mode, self.action_type = render_mode, action_type
+        self.obs_mode, self.joint_obs, self.tracker_name = obs_mode, joints, tracker
+        self.render_size = tuple(render_size)
+        self.scenario_name = scenario
         self.base = make_scenario(scenario, mount="arm", camera=CameraConfig(width=width, height=height, sensor=camera))
+        self.tracker = None
         self.max_offset, self.max_roll = max_offset, max_roll
         self.converge_px, self.hold_steps = converge_px, hold_steps
         self.scale = np.array([max_linear] * 3 + [max_angular] * 3)
         self.scene = self.renderer = None
         n = 6
-        self.observation_space = spaces.Dict({
-            "image": spaces.Box(0, 255, (height, width, 3), np.uint8),
-            # angles wrapped to [−π, π); velocities well inside ±10 rad/s (actuators stop at < 1 rad/s)
-            "joints": spaces.Box(np.r_[[-np.pi] * n, [-10.0] * n], np.r_[[np.pi] * n, [10.0] * n], (2 * n,), np.float64),
-        })
+        # velocities well inside ±10 rad/s (actuators stop at < 1 rad/s)
+        if joints == "wrapped":  # angles wrapped to [−π, π)
+            lo, hi = np.r_[[-np.pi] * n, [-10.0] * n], np.r_[[np.pi] * n, [10.0] * n]
+        else:  # sin q, cos q, q̇
+            lo, hi = np.r_[[-1.0] * 2 * n, [-10.0] * n], np.r_[[1.0] * 2 * n, [10.0] * n]
+        image = spaces.Box(0, 255, (height, width, 3), np.uint8)
+        corners = spaces.Box(-PIXEL_BOUND, PIXEL_BOUND, (4, 2), np.float64)
+        obs = {"joints": spaces.Box(lo, hi, lo.shape, np.float64)}
+        if obs_mode == "features":
+            obs.update(features=corners, desired=corners)
+        else:
+            obs["image"] = image
+        if obs_mode.startswith("image+goal"):
+            obs.update(goal=image, desired=corners)
+        if obs_mode == "image+goal+depth":
+            obs["depth"] = spaces.Box(0.0, MAX_DEPTH_M, (height, width), np.float32)
+        self.observation_space = spaces.Dict(obs)
         self.action_space = spaces.Box(-1.0, 1.0, (6 if action_type == "twist" else n,), np.float32)
 
     def _obs(self):
-        frame = self.renderer.rgb()
-        self._frame = frame
-        q = (self.scene.joint_positions + np.pi) % (2 * np.pi) - np.pi
-        return {"image": frame, "joints": np.concatenate([q, self.scene.joint_velocities])}
+        frame = None if self.obs_mode == "features" and self.tracker is None else self.renderer.rgb()
+        q, qd = self.scene.joint_positions, self.scene.joint_velocities
+        if self.joint_obs == "wrapped":
+            joints = np.concatenate([(q + np.pi) % (2 * np.pi) - np.pi, qd])
+        else:
+            joints = np.concatenate([np.sin(q), np.cos(q), qd])
+        obs = {"joints": joints}
+        if self.obs_mode == "features":  # with a tracker, its box's corners and where they go at the goal
+            desired = self.desired if self.tracker is None else self.tracked_desired
+            obs.update(features=self._features(frame), desired=desired.copy())
+        else:
+            obs["image"] = frame
+        if self.obs_mode.startswith("image+goal"):
+            obs.update(goal=self.goal.copy(), desired=self.desired.copy())
+        if self.obs_mode == "image+goal+depth":
+            obs["depth"] = np.clip(self.renderer.depth(), 0.0, MAX_DEPTH_M).astype(np.float32)
+        return obs
+
+    def _features(self, frame: np.ndarray) -> np.ndarray:
+        """The target's corners now: the truth, or the tracker's (its last good answer when it faults)."""
+        if self.tracker is None:
+            return self.renderer.ground_truth(occlusion=False, counts=False).corners.astype(np.float64)
+        if self._fresh:  # the episode's first frame is the one the tracker was initialised on
+            self._fresh = False
+            return np.asarray(self._tracked, np.float64).copy()
+        try:
+            track = self.tracker.update(frame)
+            if not np.all(np.isfinite(track.corners)):
+                raise FloatingPointError("tracker returned non-finite corners")
+            self._tracked, self._tracker_mode, self._tracker_fault = track.corners, str(track.mode), None
+        except Exception as exc:  # noqa: BLE001 - a tracker fault is reported in info, the episode goes on
+            self._tracker_mode, self._tracker_fault = "fault", f"{type(exc).__name__}: {exc}"
+        return np.asarray(self._tracked, np.float64).copy()
+
+    def _info(self, err: float, converged: bool) -> dict:
+        info = {"error_px": err, "occlusion": self._occlusion, "converged": converged, "is_success": converged,
+                "held_steps": self._held, "K": self.renderer.K.copy(), "camera_pose": self.renderer.camera_pose().matrix()}
+        if self.tracker is not None:
+            info.update(tracker_mode=self._tracker_mode, tracker_fault=self._tracker_fault)
+        return info
 
     def _error(self) -> float:
         gt = self.renderer.ground_truth(occlusion=True)
         self._occlusion = float(gt.occlusion)
         return float(np.linalg.norm(gt.corners - self.desired, axis=1).mean())
+
+    def _episode_scenario(self, options) -> object:
+        """The base scenario with this episode's options (validated; unknown keys refused by name)."""
+        if options is None:
+            return self.base
+        if not isinstance(options, dict):
+            raise InputError(f"reset options must be a dict with keys among {', '.join(RESET_OPTIONS)}, got "
+                             f"{type(options).__name__}")
+        unknown = sorted(set(options) - set(RESET_OPTIONS))
+        if unknown:
+            raise InputError(f"unknown reset option(s) {', '.join(map(str, unknown))}; accepted: {', '.join(RESET_OPTIONS)}")
+        cam = self.base.camera
+        try:
+            base = make_scenario(options.get("scenario", self.scenario_name), mount="arm",
+                                 camera=CameraConfig(width=cam.width, height=cam.height,
+                                                     sensor=options.get("camera", cam.sensor)),
+                                 **({"people": options["people"]} if "people" in options else {}))
+        except ConfigError as exc:
+            raise InputError(f"reset options: {exc}") from None
+        return base
 
     def reset(self, *, seed=None, options=None):
         if seed is not None and (isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0):
@@ -98,17 +202,50 @@ class VisualServoEnv(gym.Env):
         from hvs_sim.render.renderer import Renderer
         from hvs_sim.scene.world import Scene
 
+        base = self._episode_scenario(options)
         rng = self.np_random
         offset = (*rng.uniform(-self.max_offset, self.max_offset, 3), rng.uniform(-self.max_roll, self.max_roll))
-        scen = dataclasses.replace(self.base, seed=int(rng.integers(0, 2**31 - 1)), start_offset=tuple(float(v) for v in offset))
-        self.scene = Scene(scen)
+        if options and "start_offset" in options:
+            offset = options["start_offset"]
+        try:
+            scen = dataclasses.replace(base, seed=int(rng.integers(0, 2**31 - 1)),
+                                       start_offset=tuple(float(v) for v in offset))
+        except (TypeError, ValueError, ConfigError) as exc:
+            raise InputError(f"reset option start_offset {offset!r}: {exc}; accepted: 4 or 6 finite numbers (dx, dy, "
+                             "dz m, roll[, pitch, yaw] rad)") from None
+        from hvs_sim.loop import check_start_in_view
+
+        self.scene = Scene(scen, framebuffer=self.render_size if self.render_mode == "rgb_array" else None)
         self.renderer = Renderer(self.scene)
+        check_start_in_view(self.scene, self.renderer)
         ref_pos, ref_R = self.scene.reference_pose()
         self.desired = self.renderer.project(CameraPose(ref_R, ref_pos), self.scene.target_corners_world())
+        if self.obs_mode.startswith("image+goal"):
+            teacher = Renderer(self.scene, people=False)
+            with self.scene.posed(self.scene.reference_configuration()):
+                self.goal = teacher.rgb()
         self.arm = ArmDriver(self.scene)
         self._held = 0
+        self._start_tracker()
         err = self._error()
-        return self._obs(), {"error_px": err, "occlusion": self._occlusion, "converged": False, "held_steps": 0}
+        return self._obs(), self._info(err, False)
+
+    def _start_tracker(self) -> None:
+        """With a tracker: its template at the target's box in the episode's first frame."""
+        self.tracker = None
+        if self.tracker_name == "ground_truth":
+            return
+        from hvs_sim.plugins import make_any_tracker
+        from hvs_sim.tracking.frames import roi_corners, roi_from_corners
+
+        self.tracker = make_any_tracker(self.tracker_name)
+        self.flag0 = self.renderer.ground_truth(occlusion=False, counts=False).corners
+        roi = roi_from_corners(self.flag0)
+        self.roi0 = roi_corners(roi)  # the tracked box's corners in the first frame; s* is where they go at the goal
+        self.tracked_desired = self.renderer.transfer(self.flag0, self.desired, self.roi0)
+        track = self.tracker.init(self.renderer.rgb(), roi)
+        self._tracked = self.roi0 if track is None else track.corners  # an outside tracker's init may answer nothing
+        self._tracker_mode, self._tracker_fault, self._fresh = "init", None, True
 
     def step(self, action):
         if self.scene is None:
@@ -133,14 +270,16 @@ class VisualServoEnv(gym.Env):
         err = self._error()
         self._held = self._held + 1 if err < self.converge_px else 0
         terminated = self._held >= self.hold_steps
-        info = {"error_px": err, "occlusion": self._occlusion, "converged": terminated, "held_steps": self._held}
-        return self._obs(), -err * self.reward_scale, terminated, False, info
+        obs = self._obs()
+        return obs, -err * self.reward_scale, terminated, False, self._info(err, terminated)
 
     def render(self):
         if self.scene is None:
             raise ResetNeededError("call reset() before render()")
         if self.render_mode == "rgb_array":
-            return self._frame.copy()
+            return self.renderer.scene_view(*self.render_size)
+        if self.render_mode == "depth_array":
+            return self.renderer.depth()
         return None
 
     def close(self):

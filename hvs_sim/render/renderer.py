@@ -55,6 +55,11 @@ class GroundTruth:
         }
 
 
+SCENE_VIEW_AZIMUTH_DEG = 50.0  # the third-person view looks past the arm's side at the wall ...
+SCENE_VIEW_ELEVATION_DEG = -20.0  # ... from a little above ...
+SCENE_VIEW_DISTANCE = 2.6  # ... this many camera-to-target distances away
+
+
 class Renderer:
     """Renders the scene's eye camera. Segmentation renders give the exact occlusion fraction."""
 
@@ -115,6 +120,27 @@ class Renderer:
         frame = self._state.capture(self._exposure(), scene.frame_index, scene.time, 1.0 / scene.scenario.fps)
         self._last = (key, frame)
         return frame.copy()
+
+    def depth(self) -> np.ndarray:
+        """H×W float32 depth (m along the optical axis) of the eye camera's view, people included when they are shown
+        in the frames; the lens's distortion is not applied (a calibrated depth camera's undistorted image)."""
+        cam = self._camera()
+        return cam.render(depth=True, scene_option=self._show_people if self.people else self._hide_people).copy()
+
+    def scene_view(self, width: int, height: int) -> np.ndarray:
+        """H×W×3 uint8 third-person view of the scene (arm, wall, people) from beside the arm, looking at the
+        midpoint of the camera and the target: what the gym env's render() shows."""
+        note_rendering()
+        if getattr(self, "_view", None) is None or self._view.width != width or self._view.height != height:
+            self._view = engine.MovableCamera(self.scene.physics, height, width)
+        cam_pos = self.camera_pose().t
+        target = self.scene.target_center_world()
+        span = float(np.linalg.norm(target - cam_pos))
+        d = target - cam_pos
+        azimuth = float(np.degrees(np.arctan2(d[1], d[0]))) + SCENE_VIEW_AZIMUTH_DEG
+        self._view.set_pose((cam_pos + target) / 2, SCENE_VIEW_DISTANCE * max(span, 0.5), azimuth,
+                            SCENE_VIEW_ELEVATION_DEG)
+        return self._view.render(scene_option=self._show_people).copy()
 
     def linear_light(self) -> np.ndarray:
         """The light this frame's exposure collects (H×W×3 linear float32), before noise, gain, the sRGB curve and

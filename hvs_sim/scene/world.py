@@ -36,7 +36,9 @@ WALL_SEED_STRIDE = 1000  # texture seed of wall slot k: stride · scenario seed 
 class Scene:
     """One scenario's world. `reset()` puts everything at t = 0; `advance(qdot)` moves one frame."""
 
-    def __init__(self, scenario: Scenario):
+    def __init__(self, scenario: Scenario, framebuffer: tuple[int, int] | None = None):
+        """framebuffer: (width, height) of other views rendered beside the eye camera's (the gym env's third-person
+        view); the offscreen buffer is made large enough for both."""
         self.scenario = scenario
         cam = scenario.camera
         rng = np.random.default_rng([scenario.seed, 1])
@@ -44,6 +46,8 @@ class Scene:
         root.option.timestep = 1.0 / (scenario.fps * PHYSICS_SUBSTEPS)
         glob = getattr(root.visual, "global")
         glob.offwidth, glob.offheight = cam.width, cam.height
+        if framebuffer is not None:
+            glob.offwidth, glob.offheight = max(cam.width, framebuffer[0]), max(cam.height, framebuffer[1])
         # fixed extent so that clip planes do not depend on where things are: near 1.5 cm, far 30 m
         root.statistic.extent = 3.0
         root.visual.map.znear = 0.005
