@@ -47,7 +47,7 @@ import numpy as np
 from tqdm import tqdm
 
 from hvs_sim.cliargs import DEFAULT_TRACKER, add_settings_option, parse_settings
-from hvs_sim.errors import ConfigError, InputError
+from hvs_sim.errors import InputError
 from hvs_sim.outputs import check_apart, check_output_file, fresh_out_dir, temporary_beside
 from hvs_sim.plugins import make_any_tracker
 from hvs_sim.tracking import TRACKER_NAMES, Track
@@ -279,10 +279,10 @@ class TrackOutputs:
             raise
 
     def _start(self, size: tuple[int, int], fps: float) -> None:
-        self.video = cv2.VideoWriter(str(self.video_path), cv2.VideoWriter_fourcc(*"mp4v"), fps, size)
-        self._open.callback(self.video.release)
-        if not self.video.isOpened():
-            raise ConfigError(f"OpenCV cannot open an mp4v video writer at {self.video_path}")
+        from hvs_sim.videoio import Mp4Writer
+
+        self.video = Mp4Writer(self.video_path, fps, size)  # H.264 (mp4v when PyAV's encoder is missing)
+        self._open.callback(self.video.close)
         self.rerun = RerunTrackLog(self.rrd, fps) if self.rrd else None
         if self.rerun:
             self._open.callback(self.rerun.close)
@@ -291,7 +291,7 @@ class TrackOutputs:
 
     def write(self, index: int, frame: np.ndarray, track: Track) -> None:
         self.csv.writerow(csv_row(index, track))
-        self.video.write(annotate(frame, index, track))
+        self.video.write(cv2.cvtColor(annotate(frame, index, track), cv2.COLOR_BGR2RGB))
         if self.rerun:
             self.rerun.log(index, frame, track)
 

@@ -115,6 +115,11 @@ def check_outputs(out, frames=FRAMES):
     assert [int(r["frame"]) for r in rows] == list(range(frames))
     assert rows[0]["mode"] == INIT_MODE and all(r["mode"] in ("align", "predict", "lost") for r in rows[1:])
     assert video_frames(out / "annotated.mp4") == (frames, (H, W))
+    import av
+
+    with av.open(str(out / "annotated.mp4")) as f:  # H.264 in yuv420p: what browsers play
+        stream = f.streams.video[0]
+        assert stream.codec_context.name == "h264" and stream.format.name == "yuv420p"
     return rows
 
 

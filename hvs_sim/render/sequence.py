@@ -65,17 +65,18 @@ def write_sequence(scenario: Scenario, out_dir: Path, fmt: str = "mp4", n_frames
     cam = scenario.camera
     writer = None
     if fmt == "mp4":
-        writer = cv2.VideoWriter(str(out_dir / "frames.mp4"), cv2.VideoWriter_fourcc(*"mp4v"), scenario.fps,
-                                 (cam.width, cam.height))
+        from hvs_sim.videoio import Mp4Writer
+
+        writer = Mp4Writer(out_dir / "frames.mp4", scenario.fps, (cam.width, cam.height))
     else:
         (out_dir / "frames").mkdir(exist_ok=True)
     rows, cams, joints, corners = [], [], [], []
     for frame, gt in tqdm(iterate_sequence(scenario, total), total=total, disable=not progress,
                           desc=f"render {scenario.name}/{scenario.mount}", unit="frame"):
-        bgr = cv2.cvtColor(frame, cv2.COLOR_RGB2BGR)
         if writer is not None:
-            writer.write(bgr)
+            writer.write(frame)
         else:
+            bgr = cv2.cvtColor(frame, cv2.COLOR_RGB2BGR)
             path = out_dir / "frames" / f"{gt.frame:05d}.png"
             if not cv2.imwrite(str(path), bgr):  # a full disk, a folder gone: never report frames not written
                 raise OutputError(f"could not write frame {path} (disk full or folder not writable); frames up to "
@@ -85,7 +86,7 @@ def write_sequence(scenario: Scenario, out_dir: Path, fmt: str = "mp4", n_frames
         joints.append(gt.joint_positions)
         corners.append(gt.corners)
     if writer is not None:
-        writer.release()
+        writer.close()
     with open(out_dir / "ground_truth.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
