@@ -315,7 +315,8 @@ def _apply_suite(args) -> None:
         if value:
             raise ConfigError(f"{flag} changes what suite {suite.name} fixes (its scenarios, seeds, camera, people "
                               "and steps): leave it out, or run without --suite")
-    args.methods = list(dict.fromkeys([*suite.methods, *(args.methods or [])]))
+    named = list(args.methods or [])
+    args.methods = list(dict.fromkeys([*suite.methods, *named] if suite.with_reference or not named else named))
     args.scenarios, args.seeds, args.camera = list(suite.scenarios), list(suite.seeds), suite.camera
     args.suite_obj = suite
     if suite.kind == "track":
@@ -607,8 +608,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "results of one suite, episode by episode")
     p.add_argument("paths", nargs="*", metavar="FOLDER", help="compare: the two result folders A B")
     p.add_argument("--suite", default=None, metavar="NAME",
-                   help="a versioned suite (hvs-sim bench suites): its frozen scenarios, seeds, camera and rules, "
-                        "with the methods you name run beside its reference methods; quick: a look in ~2 minutes")
+                   help="a versioned suite (hvs-sim bench suites): its frozen scenarios, seeds, camera and rules; the "
+                        "methods you name (default: its reference methods; quick always runs them beside yours); "
+                        "quick: a look in ~2 minutes")
     p.add_argument("--out", default=None, help="output folder (default: out/bench_<what>)")
     p.add_argument("--smoke", action="store_true", help="a tiny version that runs in about a minute (not a result)")
     p.add_argument("--overwrite", action="store_true",

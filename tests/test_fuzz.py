@@ -165,8 +165,10 @@ def test_the_stubs_let_valid_commands_through(stubs, capsys):
     assert main(["run", "--scenario", "pause", "--steps", "3", "--json", str(stubs / "r.json")]) == 0
     assert main(["bench", "servo", "--suite", "occlusion-4dof-v1", "--methods", "ecc", "--out", str(stubs / "d")]) == 0
     cfg = SEEN_CONFIGS[-1]
-    assert cfg.suite == "occlusion-4dof-v1" and cfg.tilt_deg == 0 and cfg.trackers[-1] == "ecc"
+    assert cfg.suite == "occlusion-4dof-v1" and cfg.tilt_deg == 0 and cfg.trackers == ("ecc",)  # yours alone
     assert cfg.episode_seeds == list(range(200, 220)) and cfg.camera == "phone_handheld"
+    assert main(["bench", "servo", "--suite", "quick", "--methods", "ecc", "--out", str(stubs / "f")]) == 0
+    assert SEEN_CONFIGS[-1].trackers == ("ground_truth", "hybrid:homography", "ecc")  # quick: beside the references
     assert main(["bench", "track", "--suite", "track-occlusion-v1", "--out", str(stubs / "e")]) == 0
     assert SEEN_CONFIGS[-1].methods == ("hybrid", "deep_lk", "ecc") and SEEN_CONFIGS[-1].mounts == ("handheld",)
     assert main(["scene", "--frames", "2", "--out", str(stubs / "s")]) == 0

@@ -24,7 +24,9 @@ class Suite:
     description: str
     scenarios: tuple[str, ...]
     seeds: tuple[int, ...]
-    methods: tuple[str, ...]  # the reference methods every run of the suite includes
+    # the reference methods: what runs when no methods are named, and with `with_reference` beside the named ones;
+    # otherwise the named methods alone (the suite's committed results hold the reference methods to compare with)
+    methods: tuple[str, ...]
     camera: str = "phone_handheld"
     arm: str = "jaco"
     width: int = 640
@@ -33,13 +35,14 @@ class Suite:
     extra_steps: int = 60  # servo: steps past the scenario's end
     success_px: float = 1.0
     mounts: tuple[str, ...] = ("handheld",)  # track
+    with_reference: bool = False
 
 
 SUITES: dict[str, Suite] = {s.name: s for s in (
     Suite("quick", "servo", "a look in about two minutes: someone walks by and pauses in front of the target; ground "
           "truth and the homography hybrid beside the methods you name; 4 episodes, 6-DOF starts, clean renders",
           scenarios=("pause",), seeds=(200, 201, 202, 203), methods=("ground_truth", "hybrid:homography"),
-          extra_steps=20, camera="ideal"),
+          extra_steps=20, camera="ideal", with_reference=True),
     Suite("occlusion-v1", "servo", "6-DOF servoing under occlusion: clear, walk_by, pause; 20 episodes each from 6-DOF "
           "start poses; phone_handheld camera; the built-in methods",
           scenarios=("clear", "walk_by", "pause"), seeds=tuple(range(200, 220)),
@@ -74,5 +77,6 @@ def describe() -> str:
         lines += [f"{s.name} ({s.kind}): {s.description}",
                   f"    scenarios {', '.join(s.scenarios)}; seeds {s.seeds[0]}–{s.seeds[-1]}; {size}",
                   f"    camera {s.camera} {s.width}×{s.height}, arm {s.arm}; {extra}",
-                  f"    reference methods: {', '.join(s.methods)}"]
+                  f"    reference methods: {', '.join(s.methods)}"
+                  + (" (always run beside yours)" if s.with_reference else " (run when you name none)")]
     return "\n".join(lines) + "\n"
