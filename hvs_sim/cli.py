@@ -329,8 +329,14 @@ def cmd_bench_compare(args) -> int:
     if len(args.paths) != 2:
         raise ConfigError(f"`bench compare` takes two result folders A B, got {len(args.paths)}: hvs-sim bench compare "
                           "out/mine experiments/results/occlusion-v1")
+    pair = {}
+    if args.methods:
+        if len(args.methods) != 2:
+            raise ConfigError(f"`bench compare A B --methods MA MB` takes two methods, MA of A and MB of B; got "
+                              f"{len(args.methods)}")
+        pair = {"methods_a": args.methods[:1], "methods_b": args.methods[1:]}
     out = fresh_out_dir(args.out, args.overwrite, ("compare.json", "compare.md", "compare.png"))
-    result = compare(*args.paths)
+    result = compare(*args.paths, **pair)
     table = compare_table(result)
     write_atomic(out / "compare.json", json.dumps(result, indent=2))
     write_atomic(out / "compare.md", table)

@@ -130,7 +130,7 @@ def compare_figure(result: dict, path: Path) -> Path:
     from hvs_sim.viz.figures import method_colour
 
     rows = [r for r in result["rows"] if r["scenario"] == "all"]
-    fig, axes = plt.subplots(1, len(rows), figsize=(4 * len(rows), 4), squeeze=False)
+    fig, axes = plt.subplots(1, len(rows), figsize=(max(6.5, 4.5 * len(rows)), 4.6), squeeze=False)
     for ax, r in zip(axes[0], rows, strict=True):
         p = np.maximum(np.asarray(r["paired_pose_error_mm"], float), 1e-2)
         ax.scatter(p[:, 0], p[:, 1], s=14, color=method_colour(r["a"]), label=f"{r['episodes']} episodes")
@@ -139,7 +139,7 @@ def compare_figure(result: dict, path: Path) -> Path:
         ax.set(xscale="log", yscale="log", xlabel=f"A: {r['a']} (mm)", ylabel=f"B: {r['b']} (mm)",
                title=f"McNemar p {r['mcnemar']['p_value']:.2g}, Wilcoxon p {r['pose_error_mm']['p_value']:.2g}")
         ax.legend(loc="upper left", fontsize=8)
-    fig.suptitle("final pose error, episode by episode (below the diagonal: A ends closer)")
+    fig.suptitle("final pose error, episode by episode (below the diagonal: A ends closer)", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
