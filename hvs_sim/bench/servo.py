@@ -308,6 +308,7 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
+    provenance = _provenance()  # the code that runs: read before the episodes, which may take hours
     seeds = config.episode_seeds
     # workers resolve each method again: a name registered in this process travels as its module:callable
     run_as = {m: portable_method(m) if config.workers > 1 else m for m in config.trackers}
@@ -320,7 +321,7 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
     for key, summ, trace in collect_jobs(_episode, jobs, config, out, "bench servo", "episode", progress):
         episodes[key], traces[key] = summ, trace
     lo, hi = offset_range(0.8, np.radians(config.tilt_deg))
-    summary = {"schema": RESULTS_SCHEMA, "suite": config.suite, **_provenance(), "config": config_json(config),
+    summary = {"schema": RESULTS_SCHEMA, "suite": config.suite, **provenance, "config": config_json(config),
                "success_rules": RULES,
                "offset_range": {"low": lo.tolist(), "high": hi.tolist(),
                                 "axes": "dx, dy, dz (m, camera frame), roll, pitch, yaw (rad); standoff 0.8 m",
