@@ -81,6 +81,9 @@ def cmd_scene(args) -> int:
 
     if args.frames is not None and args.frames < 1:
         raise ConfigError(f"--frames must be >= 1, got {args.frames}")
+    from hvs_sim.outputs import check_apart
+
+    check_apart([p for p in (args.target_image, args.wall_images) if p], {"--out": Path(args.out) / "scenario.json"})
     scenario = _scenario_from_args(args)
     out = fresh_out_dir(args.out, args.overwrite, SCENE_OUTPUTS)
     meta = write_sequence(scenario, out, fmt=args.format, n_frames=args.frames)

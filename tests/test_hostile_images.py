@@ -112,3 +112,13 @@ def test_track_says_when_a_video_decodes_fewer_frames_than_its_header(tmp_path, 
     assert main(["track", str(cut), "--roi", "30,30,40,40", "--out", str(tmp_path / "o"), "--tracker", "ecc"]) == 0
     out = capsys.readouterr().out
     assert "note: the video's header says 30 frames; only 27 could be decoded" in out
+
+
+def test_scene_refuses_an_out_inside_its_wall_pictures(tmp_path, capsys):
+    pics = tmp_path / "pics"
+    pics.mkdir()
+    for k in range(2):
+        cv2.imwrite(str(pics / f"p{k}.png"), np.random.default_rng(k).integers(0, 255, (80, 120, 3), np.uint8))
+    before = sorted(p.name for p in pics.iterdir())
+    assert main(["scene", "--wall-images", str(pics), "--out", str(pics / "out"), "--frames", "1"]) == 2
+    assert "lies inside the input" in capsys.readouterr().err and sorted(p.name for p in pics.iterdir()) == before
