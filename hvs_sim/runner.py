@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
+import os
 import time
 from dataclasses import asdict
 from pathlib import Path
@@ -13,7 +14,7 @@ import numpy as np
 
 from hvs_sim.errors import ConfigError
 from hvs_sim.loop import LoopConfig, RunStats, ServoLoop, StepRecord
-from hvs_sim.outputs import write_atomic
+from hvs_sim.outputs import temporary_beside, write_atomic
 from hvs_sim.scene.scenarios import Scenario
 
 FIGURE_RISING_OCCLUSION = 0.3  # frames.png's second tile: the first step with more of the target hidden
@@ -31,7 +32,7 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
     tracker_settings: the tracker's config fields (make_tracker keywords)."""
     from tqdm.auto import tqdm
 
-    logger = None
+    logger = rrd_tmp = csv_tmp = None
     config = LoopConfig() if config is None else config
     if figures and not config.keep_frames:
         raise ConfigError("figures need the frames: LoopConfig(keep_frames=True)")
@@ -42,7 +43,8 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
 
         if rrd:
             Path(rrd).parent.mkdir(parents=True, exist_ok=True)
-        rec = recording("hvs_sim", rrd=rrd, spawn=spawn)
+            rrd_tmp = temporary_beside(rrd)  # renamed into place once the recording is closed
+        rec = recording("hvs_sim", rrd=rrd_tmp, spawn=spawn)
         setup = {"scenario": scenario.name, "mount": scenario.mount, "seed": scenario.seed, "tracker": tracker,
                  "camera": scenario.camera.sensor.name, "target": scenario.target_label, "wall": scenario.wall,
                  "people": scenario.people, "start_offset": list(scenario.start_offset), "loop": asdict(config)}
@@ -56,7 +58,8 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
     csv_file = steps_csv = None
     if json_path:
         Path(json_path).parent.mkdir(parents=True, exist_ok=True)
-        csv_file = open(steps_csv_path(json_path), "w", newline="")  # noqa: SIM115 - closed in finally
+        csv_tmp = temporary_beside(steps_csv_path(json_path))  # renamed into place when closed
+        csv_file = open(csv_tmp, "w", newline="")  # noqa: SIM115 - closed in finally
         steps_csv = csv.writer(csv_file)
         steps_csv.writerow(STEP_COLUMNS)
     bar = tqdm(total=config.steps, disable=not progress, desc=f"{scenario.name}/{tracker}", unit="step")
@@ -84,14 +87,18 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
         raise
     finally:
         bar.close()
+        keep = completed or (interrupted and stats.n > 0)  # a run that failed leaves no half result behind
         if csv_file is not None:
             csv_file.close()
+            os.replace(csv_tmp, steps_csv_path(json_path)) if keep else csv_tmp.unlink(missing_ok=True)
         if logger is not None:  # a complete recording of the steps so far, whatever stopped the run
             logger.drain()  # the queued steps first: whether logging failed is known after them
             if stats.n:
                 logger.log_summary(_summary(scenario, tracker, stats, logger, interrupted))
             logger.close()
-        if json_path and (completed or (interrupted and stats.n)):
+            if rrd_tmp is not None and rrd_tmp.exists():  # a complete recording of the steps so far
+                os.replace(rrd_tmp, rrd) if keep else rrd_tmp.unlink()
+        if json_path and keep:
             write_atomic(json_path, json.dumps(_summary(scenario, tracker, stats, logger, interrupted), indent=2))
     summary = _summary(scenario, tracker, stats, logger, False)
     if figures:

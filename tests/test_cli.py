@@ -159,3 +159,18 @@ def test_run_refuses_two_outputs_in_one_file(tmp_path, capsys):
     assert main(["run", "--steps", "2", "--json", str(tmp_path / "r.json"), "--rrd",
                  str(tmp_path / "r_steps.csv")]) == 2
     assert "one file" in capsys.readouterr().err
+
+
+def test_a_run_that_fails_leaves_nothing_behind(tmp_path, capsys):
+    """A tracker whose init fails stops the run: no run.json, no steps CSV, no recording, no temporary."""
+    from hvs_sim.cli import main
+
+    bad = tmp_path / "bad_tracker.py"
+    bad.write_text("class T:\n    warp = 'similarity'\n    def init(self, frame, roi):\n        raise RuntimeError('no')\n"
+                   "    def update(self, frame):\n        return None\n\ndef make():\n    return T()\n")
+    out = tmp_path / "out"
+    out.mkdir()
+    assert main(["run", "--tracker", f"{bad}:make", "--steps", "3", "--width", "320", "--height", "240",
+                 "--json", str(out / "run.json"), "--rrd", str(out / "run.rrd")]) == 2
+    assert "could not start" in capsys.readouterr().err
+    assert list(out.iterdir()) == []
