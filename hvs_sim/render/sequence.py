@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import os
 from collections.abc import Iterator
 from dataclasses import asdict
 from pathlib import Path
@@ -13,7 +14,7 @@ import cv2
 import numpy as np
 
 from hvs_sim.errors import OutputError
-from hvs_sim.outputs import write_atomic
+from hvs_sim.outputs import temporary_beside, write_atomic
 from hvs_sim.render.renderer import GroundTruth, Renderer
 from hvs_sim.scene.scenarios import Scenario
 from hvs_sim.scene.world import Scene
@@ -56,9 +57,8 @@ def _json_safe(value):
 
 def write_sequence(scenario: Scenario, out_dir: Path, fmt: str = "mp4", n_frames: int | None = None,
                    progress: bool = True) -> dict:
-    """Write frames (mp4 or PNGs) and ground_truth.csv / .npz / scenario.json into out_dir."""
-    from tqdm.auto import tqdm
-
+    """Write frames (mp4 or PNGs) and ground_truth.csv / .npz / scenario.json into out_dir, each file whole (written
+    under a temporary name, renamed into place): a render that fails or is interrupted leaves no half video."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     total = scenario.n_frames if n_frames is None else n_frames
@@ -67,10 +67,31 @@ def write_sequence(scenario: Scenario, out_dir: Path, fmt: str = "mp4", n_frames
     if fmt == "mp4":
         from hvs_sim.videoio import Mp4Writer
 
-        writer = Mp4Writer(out_dir / "frames.mp4", scenario.fps, (cam.width, cam.height))
+        video_tmp = temporary_beside(out_dir / "frames.mp4")  # renamed into place once every frame is in it
+        writer = Mp4Writer(video_tmp, scenario.fps, (cam.width, cam.height))
     else:
         (out_dir / "frames").mkdir(exist_ok=True)
     rows, cams, joints, corners = [], [], [], []
+    try:
+        _render_frames(scenario, total, progress, writer, out_dir, rows, cams, joints, corners)
+    except BaseException:
+        if writer is not None:
+            writer.close()
+            video_tmp.unlink(missing_ok=True)
+        raise
+    if writer is not None:
+        writer.close()
+        os.replace(video_tmp, out_dir / "frames.mp4")
+    _write_ground_truth(scenario, out_dir, rows, cams, joints, corners)
+    meta = {"scenario": _json_safe(asdict(scenario)), "frames": total, "format": fmt,
+            "peak_occlusion": float(max(r["occlusion"] for r in rows))}
+    write_atomic(out_dir / "scenario.json", json.dumps(meta, indent=2, allow_nan=False))
+    return meta
+
+
+def _render_frames(scenario, total, progress, writer, out_dir, rows, cams, joints, corners) -> None:
+    from tqdm.auto import tqdm
+
     for frame, gt in tqdm(iterate_sequence(scenario, total), total=total, disable=not progress,
                           desc=f"render {scenario.name}/{scenario.mount}", unit="frame"):
         if writer is not None:
@@ -85,19 +106,25 @@ def write_sequence(scenario: Scenario, out_dir: Path, fmt: str = "mp4", n_frames
         cams.append(gt.camera.matrix())
         joints.append(gt.joint_positions)
         corners.append(gt.corners)
-    if writer is not None:
-        writer.close()
-    with open(out_dir / "ground_truth.csv", "w", newline="") as f:
+
+
+def _write_ground_truth(scenario, out_dir, rows, cams, joints, corners) -> None:
+    """ground_truth.csv and ground_truth.npz, each written whole under a temporary name and renamed into place."""
+    import io
+
+    with io.StringIO(newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
-    np.savez_compressed(
-        out_dir / "ground_truth.npz", time=np.array([r["time"] for r in rows]),
-        center=np.array([[r["cx"], r["cy"]] for r in rows]), corners=np.array(corners),
-        occlusion=np.array([r["occlusion"] for r in rows]), camera_pose=np.array(cams),
-        joint_positions=np.array(joints), K=Renderer.intrinsics_of(scenario),
-        distortion=np.array(scenario.camera.sensor.distortion))
-    meta = {"scenario": _json_safe(asdict(scenario)), "frames": total, "format": fmt,
-            "peak_occlusion": float(max(r["occlusion"] for r in rows))}
-    write_atomic(out_dir / "scenario.json", json.dumps(meta, indent=2, allow_nan=False))
-    return meta
+        write_atomic(out_dir / "ground_truth.csv", f.getvalue())
+    npz_tmp = temporary_beside(out_dir / "ground_truth.npz")
+    try:
+        np.savez_compressed(
+            npz_tmp, time=np.array([r["time"] for r in rows]),
+            center=np.array([[r["cx"], r["cy"]] for r in rows]), corners=np.array(corners),
+            occlusion=np.array([r["occlusion"] for r in rows]), camera_pose=np.array(cams),
+            joint_positions=np.array(joints), K=Renderer.intrinsics_of(scenario),
+            distortion=np.array(scenario.camera.sensor.distortion))
+        os.replace(npz_tmp, out_dir / "ground_truth.npz")
+    finally:
+        npz_tmp.unlink(missing_ok=True)
