@@ -12,7 +12,7 @@ $(STAMP): pyproject.toml tests/plugins/pyproject.toml
 	$(PY) -m pip install --quiet torch==2.13.0
 	$(PY) -m pip install --quiet -e ".[test]"
 	# the outside methods the plugin tests drive (a tracker, a law, a policy registered by entry point)
-	$(PY) -m pip install --quiet --no-build-isolation --no-deps -e tests/plugins
+	$(PY) -m pip install --quiet --no-deps -e tests/plugins
 	touch $(STAMP)
 
 install: $(STAMP)
