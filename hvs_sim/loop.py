@@ -110,6 +110,12 @@ class LoopConfig:
             check_number("feature_filter (alpha)", self.feature_filter, 0, 1)
         if self.goal_frames is not None:
             check_number("goal_frames", self.goal_frames, 1, MAX_STILL_FRAMES, integer=True)
+            if self.template_from == "start":
+                raise ConfigError(f"goal_frames ({self.goal_frames}) averages frames into a goal image, but "
+                                  "template_from='start' takes the template from the first frame: give one of them")
+        if self.policy is not None and self.controller != "ibvs":
+            raise ConfigError(f"a policy ({self.policy!r}) replaces the servo law: leave controller "
+                              f"({self.controller!r}) at its default")
         if not (self.converge_mm > 0 and self.converge_deg > 0):
             raise ConfigError(f"converge_mm and converge_deg must be > 0, got {self.converge_mm}, {self.converge_deg}")
         if isinstance(self.steps, bool) or not isinstance(self.steps, (int, np.integer)) or not 1 <= self.steps <= MAX_STEPS:
@@ -196,6 +202,26 @@ def check_start_pose(scenario: Scenario) -> None:
     check_start_in_view(scene, Renderer(scene))
 
 
+def check_combination(tracker: str, config: LoopConfig) -> None:
+    """The rules between the tracker's name and the loop's settings that need nothing built (ServoLoop applies them,
+    and a sweep checks its whole grid with them before it runs)."""
+    image_law = config.controller == "dvs"
+    if config.policy is not None and tracker != plugins.NO_TRACKER:
+        raise ConfigError(f"a policy ({config.policy!r}) replaces tracker and law: give tracker 'none', not "
+                          f"{tracker!r}")
+    if tracker == plugins.NO_TRACKER and config.policy is None and config.controller in CONTROLLERS and not image_law:
+        raise ConfigError(f"tracker 'none' needs a law that reads only the images (dvs, or an outside law with "
+                          f"uses_features = False) or a policy; controller {config.controller!r} needs features")
+    if image_law and tracker != plugins.NO_TRACKER:
+        raise ConfigError(f"controller {config.controller!r} reads the images, not tracked features: give tracker "
+                          f"'none', not {tracker!r}")
+    if tracker == plugins.GROUND_TRUTH:
+        for name, value in (("feature_filter", config.feature_filter), ("goal_frames", config.goal_frames)):
+            if value:
+                raise ConfigError(f"{name} ({value}) applies to a tracker's corners; ground_truth features have "
+                                  f"no noise to filter and no template: leave {name} out")
+
+
 def template_view(template_from: str | None, tracked_6dof: bool) -> str:
     """LoopConfig.template_from resolved: as given, else "goal" for tracked corners on six DOF, else "start"."""
     return template_from or ("goal" if tracked_6dof else "start")
@@ -219,6 +245,7 @@ class ServoLoop:
     def __init__(self, scenario: Scenario, tracker: str = "deep_lk", config: LoopConfig = LoopConfig(), **tracker_config):
         if scenario.mount != "arm":
             raise ConfigError(f"the closed loop needs mount='arm', got {scenario.mount!r}")
+        check_combination(tracker, config)
         self.tracker = loop_tracker(tracker, tracker_config)
         self.scenario, self.tracker_name, self.config = scenario, tracker, config
         self.oracle = tracker == plugins.GROUND_TRUTH
@@ -229,9 +256,6 @@ class ServoLoop:
         # what a law's failure may raise and the run records as a fault: the built-ins raise HvsError (PBVS on a
         # degenerate quad); an outside method anything
         self._law_errors = Exception if self.law is not None or self.policy is not None else HvsError
-        if self.policy is not None and tracker != plugins.NO_TRACKER:
-            raise ConfigError(f"a policy ({config.policy!r}) replaces tracker and law: give tracker 'none', not "
-                              f"{tracker!r}")
         if tracker == plugins.NO_TRACKER and self.policy is None and not self.image_law:
             raise ConfigError(f"tracker 'none' needs a law that reads only the images (dvs, or an outside law with "
                               f"uses_features = False) or a policy; controller {config.controller!r} needs features")
@@ -255,11 +279,6 @@ class ServoLoop:
         if damping is None:  # exact features need none; tracked ones on six DOF do (IBVSConfig.damping)
             damping = TRACKED_6DOF_DAMPING if tracked_6dof and config.controller == "ibvs" else 0.0  # PBVS: no L⁺
         self.ibvs_config = dataclasses.replace(config.ibvs, damping=damping)
-        if self.oracle:  # exact features: nothing to filter, no template
-            for name, value in (("feature_filter", config.feature_filter), ("goal_frames", config.goal_frames)):
-                if value:
-                    raise ConfigError(f"{name} ({value}) applies to a tracker's corners; ground_truth features have "
-                                      f"no noise to filter and no template: leave {name} out")
         alpha = config.feature_filter
         self.filter_alpha = (FEATURE_FILTER_ALPHA if tracked_6dof else 0.0) if alpha is None else float(alpha)
         can_seed = getattr(self.tracker, "can_seed", True)  # an outside tracker without seed(A): its first frame

@@ -211,18 +211,45 @@ def _track_task(params: dict) -> dict:
             "errors": [round(float(e), 4) for e in r["error"][1:]]}
 
 
-def _servo_task(params: dict) -> dict:
+def _loop_config(params: dict):
+    """The LoopConfig a servo task's parameters make (steps left to the task)."""
     from hvs_sim.control.ibvs import IBVSConfig
     from hvs_sim.loop import LoopConfig
-    from hvs_sim.runner import run_episode
 
-    scen = _scenario(params, "arm")
     fields = _loop_fields()
     ibvs = IBVSConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in params.items()
                          if fields.get(k) == "ibvs-field"})
     loop = {k: v for k, v in params.items() if fields.get(k) == "loop-field"}
+    return LoopConfig(ibvs=ibvs, keep_frames=False, **loop)
+
+
+def check_grid(spec: SweepSpec) -> None:
+    """A servo grid's cells checked together before anything runs: the settings of one cell that conflict (a goal
+    image with a start template, a policy beside a law, features to filter from the oracle) are refused with the
+    cell, instead of failing as a task."""
+    if spec.kind != "servo":
+        return
+    from hvs_sim.loop import check_combination
+
+    seen = set()
+    for params in spec.tasks():
+        key = json.dumps({k: v for k, v in params.items() if k not in ("seed", "scenario")}, sort_keys=True)
+        if key in seen:
+            continue
+        seen.add(key)
+        try:
+            check_combination(params["tracker"], _loop_config(params))
+        except (ConfigError, TypeError) as exc:
+            cell = {k: v for k, v in params.items() if k in spec.axes}
+            raise ConfigError(f"the grid cell {cell} cannot run: {exc}") from None
+
+
+def _servo_task(params: dict) -> dict:
+    from hvs_sim.runner import run_episode
+
+    scen = _scenario(params, "arm")
     steps = params.get("steps") or scen.n_frames + EXTRA_STEPS
-    summary, _ = run_episode(scen, params["tracker"], LoopConfig(steps=steps, ibvs=ibvs, keep_frames=False, **loop),
+    summary, _ = run_episode(scen, params["tracker"], dataclasses.replace(_loop_config(params), steps=steps),
                              progress=False)
     keys = ("converged", "held_to_end", "steps_to_converge", "seconds_to_converge", "final_error_px",
             "final_pose_error_mm", "final_pose_error_deg", "max_error_px_during_occlusion", "lost_steps",
@@ -378,6 +405,7 @@ def run_sweep(spec: SweepSpec, out, engine: str = "local", workers: int = 1, add
     if n > max_tasks:
         raise ConfigError(f"the spec's grid has {n} tasks, more than {max_tasks}; shorten its axes, or raise the limit "
                           "(--max-tasks)")
+    check_grid(spec)
     out = prepare_out_dir(out)
     lock = _lock(out)
     try:

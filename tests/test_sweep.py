@@ -184,3 +184,15 @@ def test_a_huge_grid_is_refused_before_it_is_built(tmp_path):
     with pytest.raises(ConfigError, match="16000 tasks, more than 10000"):
         run_sweep(spec, tmp_path, progress=False)
     assert not (tmp_path / "spec.json").exists()
+
+
+@pytest.mark.parametrize("axes, match", [
+    ('template_from = ["start"]\ngoal_frames = [16, 32]', "goal_frames .16. averages"),
+    ('tracker = ["ground_truth", "hybrid"]\nfeature_filter = [0.1]', "ground_truth.*feature_filter"),
+    ('tracker = ["hybrid"]\ncontroller = ["dvs", "ibvs"]', "reads the images"),
+])
+def test_a_grid_cell_that_cannot_run_is_refused_before_anything_runs(tmp_path, axes, match):
+    spec = parse_spec(f'kind = "servo"\n[axes]\n{axes}\n')
+    with pytest.raises(ConfigError, match=f"grid cell .* cannot run: .*{match}"):
+        run_sweep(spec, tmp_path, progress=False)
+    assert not (tmp_path / "tasks").exists()
