@@ -338,8 +338,8 @@ def cmd_bench_compare(args) -> int:
             raise ConfigError(f"`bench compare A B --methods MA MB` takes two methods, MA of A and MB of B; got "
                               f"{len(args.methods)}")
         pair = {"methods_a": args.methods[:1], "methods_b": args.methods[1:]}
+    result = compare(*args.paths, **pair)  # checked and computed before --out is cleared
     out = fresh_out_dir(args.out, args.overwrite, ("compare.json", "compare.md", "compare.png"))
-    result = compare(*args.paths, **pair)
     table = compare_table(result)
     write_atomic(out / "compare.json", json.dumps(result, indent=2))
     write_atomic(out / "compare.md", table)
@@ -461,8 +461,8 @@ def cmd_budget(args) -> int:
         scene.update(target_texture=None, target_image=args.target_image)
     if args.target_width is not None:
         scene["target_width"] = args.target_width
+    rows = [b.budget(cam, args.standoff, **scene) for cam in dict.fromkeys(args.camera)]  # before --out is cleared
     out = fresh_out_dir(args.out, args.overwrite, ("budget.json", "budget.md", "budget.png"))
-    rows = [b.budget(cam, args.standoff, **scene) for cam in dict.fromkeys(args.camera)]
     text = b.table(rows)
     curves = b.figure(rows[0].camera, out / "budget.png", **{k: v for k, v in scene.items() if k != "target_width"})
     write_atomic(out / "budget.md", text)

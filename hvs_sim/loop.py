@@ -353,18 +353,23 @@ class ServoLoop:
     def _control_input(self, law, features_px, desired_px, true_depths, mode, motion, frame, goal, step) -> ControlInput:
         """What every law is given at a step (control/protocol.py); the features and s* in the pinhole image."""
         K = self.renderer.K
+        reads_images = self.law is not None or self.image_law  # IBVS and PBVS read no image: no copy for them
         desired_px = self._pinhole(desired_px)
+        if self.tracker is None and not self.oracle:  # a law on the images: no features (not the truth's)
+            features_px = np.full_like(desired_px, np.nan)
         s = (features_px - K[:2, 2]) / np.diag(K)[:2]
         s_star = (desired_px - K[:2, 2]) / np.diag(K)[:2]
         depths = true_depths if true_depths is not None else scale_depths(s, s_star, self.desired_depth)
-        return ControlInput(features=s, desired=s_star, depths=depths, desired_depth=self.desired_depth, K=K,
-                            features_px=features_px, desired_px=desired_px, mode=mode, camera_motion=motion,
-                            dt=1.0 / self.scenario.fps, image=frame, goal_image=goal, step=step)
+        return ControlInput(features=_frozen(s), desired=_frozen(s_star), depths=_frozen(depths),
+                            desired_depth=self.desired_depth, K=_frozen(K), features_px=_frozen(features_px),
+                            desired_px=_frozen(desired_px), mode=mode, camera_motion=_frozen(motion),
+                            dt=1.0 / self.scenario.fps, image=_frozen(frame) if reads_images else None,
+                            goal_image=_frozen(goal) if reads_images else None, step=step)
 
     def _policy_input(self, frame, gt, goal, desired_px, step) -> PolicyInput:
-        return PolicyInput(image=frame, joints=np.asarray(gt.joint_positions, float).copy(), goal_image=goal,
-                           K=self.renderer.K, desired_px=self._pinhole(desired_px), dt=1.0 / self.scenario.fps,
-                           step=step)
+        return PolicyInput(image=_frozen(frame), joints=_frozen(gt.joint_positions), goal_image=_frozen(goal),
+                           K=_frozen(self.renderer.K), desired_px=_frozen(self._pinhole(desired_px)),
+                           dt=1.0 / self.scenario.fps, step=step)
 
     def _bounded(self, twist: np.ndarray, dofs: tuple[str, ...]) -> ControlOutput:
         """An outside law's or policy's twist in the DOFs it commands, under the loop's per-axis bounds (reported
@@ -440,7 +445,11 @@ class ServoLoop:
                 desired = r.transfer(flag0, self.flag_desired, roi0)
                 controller = self._controller(self._pinhole(desired), goal, roi)
                 if self.policy is not None:
-                    self.policy.reset(self._policy_input(frame, gt, goal, desired, step))
+                    try:
+                        self.policy.reset(self._policy_input(frame, gt, goal, desired, step))
+                    except Exception as exc:  # outside code: the run cannot start, and says why
+                        raise StateError(f"policy {cfg.policy!r} failed in reset(): {type(exc).__name__}: {exc}") \
+                            from exc
                 feature_filter = (FeatureFilter(r.K, self.filter_alpha, self._pinhole(desired), self.desired_depth)
                                   if self.filter_alpha > 0 else None)
             gt_features = r.transfer(flag0, gt.corners, roi0)
@@ -543,6 +552,15 @@ class ServoLoop:
                 qdot_prev, cap = cmd.qdot, nxt
             elif step + 1 < cfg.steps:
                 cap = self._capture()
+
+
+def _frozen(a):
+    """A read-only copy for outside code (a law, a policy): nothing it does to it reaches the loop's state."""
+    if a is None:
+        return None
+    out = np.array(a, copy=True)
+    out.flags.writeable = False
+    return out
 
 
 @dataclass
@@ -685,7 +703,8 @@ class RunStats:
                   for k, v in sorted(self.timings.items())}
         tracker_err = self.tracker_error_px[:n]
         return {
-            "controller": config.controller,
+            "controller": None if config.policy is not None else config.controller,
+            "policy": config.policy,
             "damping": self.first.damping,
             "pipeline": config.pipeline,
             "template_from": self.first.template[0],

@@ -91,6 +91,13 @@ def _portable_ref(factory: Callable) -> str | None:
     module, qualname = getattr(factory, "__module__", None), getattr(factory, "__qualname__", "")
     if not module or module == "__main__" or "<" in qualname:
         return None
+    if not qualname:  # functools.partial and other callables without a name
+        return None
+    obj = sys.modules.get(module)
+    for part in qualname.split("."):
+        obj = getattr(obj, part, None)
+    if obj is not factory:  # a bound method, a wrapped function: the name does not give this factory back
+        return None
     if module.startswith("hvs_sim._plugin_file_"):  # loaded from a file: the file again
         base = getattr(sys.modules.get(module), "__hvs_plugin_ref__", None)
         return base + qualname if base else None
@@ -327,7 +334,10 @@ class ExternalTracker:
                               + ("" if corners.shape != (4, 2) else " with non-finite values")
                               + "; accepted: 4×2 finite pixels")
         center = _field(out, "center")
-        center = corners.mean(0) if center is None else np.asarray(center, float).reshape(-1)
+        try:
+            center = corners.mean(0) if center is None else np.asarray(center, float).reshape(-1)
+        except (TypeError, ValueError):
+            center = np.full(1, np.nan)
         mode = str(_field(out, "mode", "align"))
         values = {k: _field(out, k, d) for k, d in (("occlusion", 0.0), ("score", 1.0), ("confidence", 1.0))}
         if center.shape != (2,) or not np.all(np.isfinite(center)):

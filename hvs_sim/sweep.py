@@ -145,7 +145,7 @@ def parse_spec(text: str, source: str = "spec") -> SweepSpec:
     for key, values in axes.items():
         if not isinstance(values, list) or not values:
             raise ConfigError(f"{source}: axis {key!r} must be a non-empty list, got {values!r}")
-        if len({json.dumps(_same_number(v)) for v in values}) != len(values):  # 2 and 2.0 are one cell
+        if len({json.dumps(_same_number(v), default=str) for v in values}) != len(values):  # 2 and 2.0: one cell
             raise ConfigError(f"{source}: axis {key!r} repeats a value: {values}")
         for v in values:
             _check_value(kind, key, v, accepted[key])
@@ -383,9 +383,14 @@ def _task_state(path: Path) -> str:
         return "missing"
     try:
         record = json.loads(path.read_text())
-        return "ok" if record["status"] == "ok" and isinstance(record.get("metrics"), dict) else "error"
-    except (OSError, ValueError, KeyError, TypeError):
+    except (OSError, ValueError):
         return "corrupt"
+    if not isinstance(record, dict) or not {"id", "params", "status"} <= set(record) \
+            or not isinstance(record["params"], dict):
+        return "corrupt"
+    if record["status"] == "ok":
+        return "ok" if isinstance(record.get("metrics"), dict) else "corrupt"
+    return "error"
 
 
 def run_sweep(spec: SweepSpec, out, engine: str = "local", workers: int = 1, address: str | None = None,

@@ -309,9 +309,11 @@ class TrackOutputs:
     def discard(self) -> None:
         """Close and remove what this run wrote: a run that failed part-way leaves no result behind, and nothing that
         was there before it is touched."""
-        self._open.close()
-        for path in self._temporaries():
-            path.unlink(missing_ok=True)
+        try:
+            self._open.close()
+        finally:  # a close that fails again (a full disk) must not leave the temporaries behind
+            for path in self._temporaries():
+                path.unlink(missing_ok=True)
 
     @property
     def paths(self) -> list[Path]:
@@ -399,11 +401,28 @@ def _run(method, roi, source: FrameSource, outputs: TrackOutputs, result: TrackR
 
 def _tracks(method, roi, source: FrameSource) -> Iterator[tuple[np.ndarray, Track]]:
     """(frame, track) for every frame; the first is the init frame, reported with mode "init"."""
+    from hvs_sim.errors import HvsError, StateError
+
     t0 = time.perf_counter()
-    first = method.init(source.first, roi)
-    yield source.first, replace(first, mode=INIT_MODE, ms=1e3 * (time.perf_counter() - t0))
-    for frame in source.rest:
-        yield frame, method.update(frame)
+    try:
+        first = method.init(source.first, roi)
+        if first is None:  # an outside tracker's init may answer nothing: its template is the ROI
+            first = _roi_track(roi)
+        yield source.first, replace(first, mode=INIT_MODE, ms=1e3 * (time.perf_counter() - t0))
+        for frame in source.rest:
+            yield frame, method.update(frame)
+    except HvsError:
+        raise
+    except Exception as exc:  # an outside tracker's own failure: say which and where, not a traceback
+        raise StateError(f"tracker {getattr(method, 'name', '?')!r} failed: {type(exc).__name__}: {exc}") from exc
+
+
+def _roi_track(roi) -> Track:
+    """The ROI itself as a Track (identity pose): the first row for a tracker whose init reports nothing."""
+    from hvs_sim.tracking.frames import roi_center, roi_corners
+
+    return Track(center=roi_center(roi), corners=roi_corners(roi), pose=np.array([0.0, 0.0, 0.0, 1.0]),
+                 mode=INIT_MODE, occlusion=0.0, score=1.0)
 
 
 # ---------------------------------------------------------------- CLI

@@ -148,3 +148,25 @@ def test_bench_compare_pairs_episodes_and_refuses_other_suites(tmp_path, capsys)
     with pytest.raises(ConfigError, match="differ in camera"):
         compare(A, D)
     assert main(["bench", "compare", str(A)]) == 2
+
+
+def test_compare_refuses_results_from_before_the_schema(tmp_path):
+    old = tmp_path / "old"
+    old.mkdir()
+    (old / "summary.json").write_text(json.dumps({"config": {}, "episodes": []}))
+    new = _results(tmp_path / "new", methods=("a",))
+    with pytest.raises(ConfigError, match="schema hvs_sim.servo-results/2"):
+        compare(new, old)
+    (old / "summary.json").write_text("[1, 2]")
+    with pytest.raises(ConfigError, match="schema"):
+        compare(old, new)
+
+
+def test_dvs_refuses_a_goal_without_texture():
+    from hvs_sim.control.dvs import DVSController
+    from hvs_sim.errors import InputError
+    from hvs_sim.render.camera import intrinsics
+
+    flat = np.full((240, 320, 3), 128, np.uint8)
+    with pytest.raises(InputError, match="too little texture"):
+        DVSController(intrinsics(320, 240, 45), flat, (100, 80, 100, 80), 0.8)

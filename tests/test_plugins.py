@@ -209,3 +209,45 @@ def test_sweep_takes_an_outside_tracker(tmp_path):
     assert (counts["tasks"], counts["ran"], counts["errors"]) == (2, 2, 0)
     with pytest.raises(ConfigError, match="cannot import module"):
         sweep.parse_spec('kind = "servo"\n[axes]\ntracker = ["nosuch.mod:make"]\n')
+
+
+def test_review_cases_outside_code_cannot_corrupt_or_crash(tmp_path, capsys):
+    """An outside law that writes into its input changes nothing of the loop's; an image law sees no true corners; a
+    policy whose reset fails, a tracker whose init answers nothing or fails in footage: clear errors or handled."""
+    law = tmp_path / "law.py"
+    law.write_text("import numpy as np\nclass L:\n    uses_features = False\n"
+                   "    def compute(self, inp):\n        if not np.isnan(inp.features_px).all():\n"
+                   "            raise AssertionError('saw the true corners')\n"
+                   "        inp.K[0, 0] *= 2\n        return np.zeros(6)\n"
+                   "def make():\n    return L()\n")
+    recs, s = _run("none", steps=4, controller=f"{law}:make")
+    assert s["fault_steps"] == 4 and all("read-only" in f for f in s["faults"])  # the write is refused, recorded
+    assert abs(recs[-1].error_px - recs[0].error_px) < 1e-6  # the truth did not move
+    pol = tmp_path / "pol.py"
+    pol.write_text("class P:\n    def reset(self, obs):\n        raise RuntimeError('boom')\n"
+                   "    def act(self, obs):\n        return [0] * 6\ndef make():\n    return P()\n")
+    with pytest.raises(Exception, match="policy .* failed in reset.*boom"):
+        _run("none", steps=2, policy=f"{pol}:make")
+    trk = tmp_path / "trk.py"
+    trk.write_text("class T:\n    warp = 'similarity'\n    def init(self, frame, roi):\n        return None\n"
+                   "    def update(self, frame):\n        raise ValueError('lost it')\ndef make():\n    return T()\n")
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    import cv2
+
+    for k in range(3):
+        cv2.imwrite(str(frames / f"f{k}.png"), np.random.default_rng(k).integers(0, 255, (64, 64, 3), np.uint8))
+    assert main(["track", str(frames), "--roi", "10,10,30,30", "--tracker", f"{trk}:make",
+                 "--out", str(tmp_path / "o")]) == 2
+    assert "failed: ValueError: lost it" in capsys.readouterr().err
+
+
+def test_portable_refuses_a_partial_with_the_reason():
+    import functools
+
+    hvs_sim.register_tracker("partial_one", functools.partial(make_module_level_tracker, max_points=50))
+    try:
+        with pytest.raises(ConfigError, match="worker processes cannot import"):
+            plugins.portable("tracker", "partial_one")
+    finally:
+        plugins.unregister("tracker", "partial_one")

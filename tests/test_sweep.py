@@ -196,3 +196,13 @@ def test_a_grid_cell_that_cannot_run_is_refused_before_anything_runs(tmp_path, a
     with pytest.raises(ConfigError, match=f"grid cell .* cannot run: .*{match}"):
         run_sweep(spec, tmp_path, progress=False)
     assert not (tmp_path / "tasks").exists()
+
+
+def test_a_record_of_the_wrong_shape_is_set_aside_not_fatal(tmp_path):
+    spec = parse_spec('kind = "servo"\n[axes]\ntracker = ["ground_truth"]\n[fixed]\nsteps = 2\nscenario = "clear"\n'
+                      'camera = "ideal"\n')
+    run_sweep(spec, tmp_path, progress=False)
+    task = next((tmp_path / "tasks").glob("*.json"))
+    task.write_text(json.dumps({"status": "ok", "metrics": [1]}))
+    counts = run_sweep(spec, tmp_path, progress=False, retry_failed=False)
+    assert counts["corrupt_rerun"] == 1 and json.loads(task.read_text())["status"] == "ok"

@@ -103,14 +103,14 @@ def budget(camera: str = "phone_handheld", standoff: float = 0.8, **scene) -> Bu
     sensor = sensor_preset(camera)
     scen = make_scenario("clear", mount="arm", camera=CameraConfig(sensor=sensor), standoff=standoff, **scene)
     clean, grey_var, K, roi = goal_view(scen)
-    one = view_bound(clean, grey_var, K, roi, standoff)
     x0, y0, w, h = roi
-    n = filter_frames()
-    if not np.isfinite(grey_var[y0:y0 + h, x0:x0 + w]).any():
+    patch = grey_var[y0:y0 + h, x0:x0 + w]
+    if not np.isfinite(patch).any():
         raise ConfigError("every pixel of the template is saturated at this camera's exposure")
+    one = view_bound(clean, grey_var, K, roi, standoff)
+    n = filter_frames()
     return Budget(sensor.name, scen.target_label, scen.target_width, standoff, (w, h),
-                  float(np.sqrt(np.median(grey_var[y0:y0 + h, x0:x0 + w]))), one, one.scaled(n),
-                  one.scaled(GOAL_FRAMES), n)
+                  float(np.sqrt(np.median(patch[np.isfinite(patch)]))), one, one.scaled(n), one.scaled(GOAL_FRAMES), n)
 
 
 def table(rows: list[Budget]) -> str:

@@ -86,8 +86,14 @@ class ServoBenchConfig:
             for v in values:
                 if v not in accepted:
                     raise choice_error(what, v, accepted)
+        from hvs_sim.loop import check_combination
+
         for m in self.trackers:  # e.g. a residual tracker with a homography: refused here, not in a worker
-            tracker, warp, _, _ = parse_method(m)
+            tracker, warp, controller, policy = parse_method(m)
+            try:
+                check_combination(tracker, LoopConfig(controller=controller, policy=policy))
+            except ConfigError as exc:
+                raise ConfigError(f"servo method {m!r}: {exc}") from None
             if warp and tracker not in TRACKER_NAMES:
                 raise ConfigError(f"servo method {m!r}: an outside tracker declares its warp itself (its `warp` "
                                   f"attribute); leave :{warp} out")
@@ -254,12 +260,18 @@ def _provenance() -> dict:
 
     from hvs_sim import __version__
 
+    here = Path(__file__).resolve().parent.parent  # the package's folder
     try:
-        commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=True,
-                                cwd=Path(__file__).parent).stdout.strip()
+        def git(*args):
+            return subprocess.run(["git", *args], capture_output=True, text=True, check=True, cwd=here).stdout.strip()
+
+        if Path(git("rev-parse", "--show-toplevel")).resolve() != here.parent:  # installed inside another repository
+            raise OSError("not hvs_sim's own checkout")
+        commit = git("rev-parse", "HEAD")
+        dirty = bool(git("status", "--porcelain", "--", str(here)))  # the package's code differs from the commit
     except (OSError, subprocess.SubprocessError):
-        commit = "unknown"
-    return {"hvs_sim_version": __version__, "commit": commit}
+        commit, dirty = "unknown", None
+    return {"hvs_sim_version": __version__, "commit": commit, "code_modified": dirty}
 
 
 def method_results(eps: list[dict], success_px: float) -> dict:

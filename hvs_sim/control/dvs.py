@@ -71,6 +71,9 @@ class DVSController:
         self.I_star = g[self.v, self.u]
         self.L = luminance_interaction(gx[self.v, self.u] * fx, gy[self.v, self.u] * fy, x, y, desired_depth)
         H = self.L.T @ self.L
+        if np.linalg.matrix_rank(H) < len(H):
+            raise InputError("DVS: the goal image's target region has too little texture (flat, or changing in one "
+                             "direction only) for its luminance to say how the camera moves")
         self._solve = np.linalg.inv(H + DVS_MU * np.diag(np.diag(H))) @ self.L.T  # (6, N): L and μ are fixed
         self.singular_values = np.linalg.svd(self.L, compute_uv=False)
         self.dofs = DOF_NAMES

@@ -243,7 +243,11 @@ class VisualServoEnv(gym.Env):
         roi = roi_from_corners(self.flag0)
         self.roi0 = roi_corners(roi)  # the tracked box's corners in the first frame; s* is where they go at the goal
         self.tracked_desired = self.renderer.transfer(self.flag0, self.desired, self.roi0)
-        track = self.tracker.init(self.renderer.rgb(), roi)
+        try:
+            track = self.tracker.init(self.renderer.rgb(), roi)
+        except Exception as exc:  # the episode cannot give features: say so, as the loop does
+            raise StateError(f"tracker {self.tracker_name!r} could not start on the first frame: "
+                             f"{type(exc).__name__}: {exc}") from exc
         self._tracked = self.roi0 if track is None else track.corners  # an outside tracker's init may answer nothing
         self._tracker_mode, self._tracker_fault, self._fresh = "init", None, True
 
