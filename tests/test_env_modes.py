@@ -79,3 +79,10 @@ def test_a_tracker_fills_the_features():
                                   env.roi0)
     assert info["tracker_mode"] == "align" and np.abs(obs["features"] - truth).max() < 1.0
     assert not np.allclose(obs["desired"], env.desired)  # s* of the tracked box, not of the target's outline
+
+
+def test_a_drawn_start_out_of_reach_is_drawn_again():
+    env = VisualServoEnv(max_offset=0.2, **SMALL)
+    for seed in range(25):  # some of these first draws put the target out of view
+        _, info = env.reset(seed=seed)
+        assert np.isfinite(info["error_px"])

@@ -47,6 +47,7 @@ JOINT_OBS = ("wrapped", "sincos")
 RESET_OPTIONS = ("scenario", "start_offset", "camera", "people")
 RENDER_MODES = ("rgb_array", "depth_array")
 PIXEL_BOUND = 1e4  # corner coordinates in the observation: pixels, far outside any image
+START_DRAWS = 20  # start poses drawn per reset before giving up (unreachable, or the target out of view)
 MAX_DEPTH_M = 10.0  # the scene's far clip plane (scene/world.py): the depth observation's bound
 
 
@@ -204,20 +205,27 @@ class VisualServoEnv(gym.Env):
 
         base = self._episode_scenario(options)
         rng = self.np_random
-        offset = (*rng.uniform(-self.max_offset, self.max_offset, 3), rng.uniform(-self.max_roll, self.max_roll))
-        if options and "start_offset" in options:
-            offset = options["start_offset"]
-        try:
-            scen = dataclasses.replace(base, seed=int(rng.integers(0, 2**31 - 1)),
-                                       start_offset=tuple(float(v) for v in offset))
-        except (TypeError, ValueError, ConfigError) as exc:
-            raise InputError(f"reset option start_offset {offset!r}: {exc}; accepted: 4 or 6 finite numbers (dx, dy, "
-                             "dz m, roll[, pitch, yaw] rad)") from None
         from hvs_sim.loop import check_start_in_view
 
-        self.scene = Scene(scen, framebuffer=self.render_size if self.render_mode == "rgb_array" else None)
-        self.renderer = Renderer(self.scene)
-        check_start_in_view(self.scene, self.renderer)
+        given = options is not None and "start_offset" in options
+        for draw in range(1 if given else START_DRAWS):
+            offset = (*rng.uniform(-self.max_offset, self.max_offset, 3), rng.uniform(-self.max_roll, self.max_roll))
+            if given:
+                offset = options["start_offset"]
+            try:
+                scen = dataclasses.replace(base, seed=int(rng.integers(0, 2**31 - 1)),
+                                           start_offset=tuple(float(v) for v in offset))
+            except (TypeError, ValueError, ConfigError) as exc:
+                raise InputError(f"reset option start_offset {offset!r}: {exc}; accepted: 4 or 6 finite numbers (dx, "
+                                 "dy, dz m, roll[, pitch, yaw] rad)") from None
+            try:  # a start the arm cannot reach or with the target out of view: a drawn one is drawn again
+                self.scene = Scene(scen, framebuffer=self.render_size if self.render_mode == "rgb_array" else None)
+                self.renderer = Renderer(self.scene)
+                check_start_in_view(self.scene, self.renderer)
+                break
+            except ConfigError as exc:
+                if given or draw == START_DRAWS - 1:
+                    raise InputError(f"no usable start pose ({exc})") from None
         ref_pos, ref_R = self.scene.reference_pose()
         self.desired = self.renderer.project(CameraPose(ref_R, ref_pos), self.scene.target_corners_world())
         if self.obs_mode.startswith("image+goal"):
