@@ -251,3 +251,22 @@ def test_portable_refuses_a_partial_with_the_reason():
             plugins.portable("tracker", "partial_one")
     finally:
         plugins.unregister("tracker", "partial_one")
+
+
+def test_dvs_commands_only_the_dofs_it_is_given():
+    from hvs_sim.control.dvs import DVSController
+    from hvs_sim.control.protocol import ControlInput
+    from hvs_sim.render.camera import intrinsics
+
+    rng = np.random.default_rng(0)
+    import cv2
+
+    goal = cv2.GaussianBlur(rng.integers(0, 255, (240, 320, 3), np.uint8), (0, 0), 2)
+    frame = np.roll(goal, 2, axis=1)
+    K = intrinsics(320, 240, 45)
+    inp = ControlInput(features=np.zeros((4, 2)), desired=np.zeros((4, 2)), depths=np.ones(4), desired_depth=0.8,
+                       K=K, features_px=np.zeros((4, 2)), desired_px=np.zeros((4, 2)), image=frame)
+    four = DVSController(K, goal, (100, 80, 100, 80), 0.8, IBVSConfig(dofs=("vx", "vy", "vz", "wz"))).compute(inp)
+    six = DVSController(K, goal, (100, 80, 100, 80), 0.8).compute(inp)
+    assert four.twist[3] == four.twist[4] == 0 and four.dofs == ("vx", "vy", "vz", "wz")
+    assert six.twist[4] != 0 and four.twist[0] != 0

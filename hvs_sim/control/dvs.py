@@ -69,14 +69,16 @@ class DVSController:
         fx, fy, cx, cy = self.K[0, 0], self.K[1, 1], self.K[0, 2], self.K[1, 2]
         x, y = (self.u - cx) / fx, (self.v - cy) / fy
         self.I_star = g[self.v, self.u]
-        self.L = luminance_interaction(gx[self.v, self.u] * fx, gy[self.v, self.u] * fy, x, y, desired_depth)
+        self.dofs = tuple(self.config.dofs or DOF_NAMES)  # IBVSConfig.dofs: the DOFs commanded (the rest stay 0)
+        self.cols = [DOF_NAMES.index(d) for d in self.dofs]
+        self.L = luminance_interaction(gx[self.v, self.u] * fx, gy[self.v, self.u] * fy, x, y,
+                                       desired_depth)[:, self.cols]
         H = self.L.T @ self.L
         if np.linalg.matrix_rank(H) < len(H):
             raise InputError("DVS: the goal image's target region has too little texture (flat, or changing in one "
                              "direction only) for its luminance to say how the camera moves")
         self._solve = np.linalg.inv(H + DVS_MU * np.diag(np.diag(H))) @ self.L.T  # (6, N): L and μ are fixed
         self.singular_values = np.linalg.svd(self.L, compute_uv=False)
-        self.dofs = DOF_NAMES
 
     def error(self, image: np.ndarray) -> np.ndarray:
         """I − I* over the region's pixels."""
@@ -91,6 +93,8 @@ class DVSController:
             raise InputError("DVS reads the current frame: the ControlInput has no image")
         e = self.error(inp.image)
         lam = self.config.gain
-        twist, saturated = bound_twist(-lam * (self._solve @ e), self.config.max_linear, self.config.max_angular)
+        twist = np.zeros(6)
+        twist[self.cols] = -lam * (self._solve @ e)
+        twist, saturated = bound_twist(twist, self.config.max_linear, self.config.max_angular)
         # error_px: no corners here; the RMS intensity error stands in the error vector
         return ControlOutput(twist, e, 0.0, lam, saturated, self.singular_values, self.dofs)
