@@ -22,12 +22,54 @@ import numpy as np
 
 from hvs_sim.errors import HvsError
 
+OUTCOMES = ("clear", "raw traceback", "silently accepted", "data lost", "hang")
+HANG_S = 120  # a case that has not returned after this long counts as a hang
 
-def classify(fn) -> tuple[str, str]:
+
+class _Hang(Exception):
+    pass
+
+
+def _snapshot(root: Path | None) -> dict:
+    """Every regular file under root (the inputs a case could destroy) → its bytes' hash."""
+    import hashlib
+
+    if root is None:
+        return {}
+    return {p: hashlib.sha1(p.read_bytes()).hexdigest() for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+def classify(fn, inputs: Path | None = None) -> tuple[str, str]:
+    """clear / raw traceback / silently accepted; "data lost" when a file under `inputs` changed or vanished, "hang"
+    when the case ran past HANG_S."""
+    import signal
+
     err = io.StringIO()
+    before = _snapshot(inputs)
+
+    def on_alarm(signum, frame):
+        raise _Hang()
+
+    previous = signal.signal(signal.SIGALRM, on_alarm)
+    signal.alarm(HANG_S)
+    try:
+        outcome = _classify(fn, err)
+    except _Hang:
+        outcome = ("hang", f"no answer after {HANG_S} s")
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+    after = _snapshot(inputs)
+    lost = [str(p) for p, h in before.items() if after.get(p) != h]
+    return ("data lost", f"changed or removed: {', '.join(lost)[:100]}") if lost else outcome
+
+
+def _classify(fn, err) -> tuple[str, str]:
     try:
         with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
             out = fn()
+    except _Hang:
+        raise
     except HvsError as exc:
         return "clear", str(exc)[:120]
     except Exception as exc:  # noqa: BLE001 - what is being counted
@@ -158,16 +200,16 @@ def safety_cases(tmp: Path):
     from hvs_sim.sweep import parse_spec, run_sweep
     from hvs_sim.tracking import make_tracker
 
-    frames = tmp / "frames"
-    frames.mkdir()
+    frames = tmp / "inputs" / "frames"  # the inputs, watched for loss (main: classify's `inputs`)
+    frames.mkdir(parents=True)
     for k in range(3):
         cv2.imwrite(str(frames / f"f{k}.png"), np.random.default_rng(k).integers(0, 255, (64, 64, 3), np.uint8))
-    video = tmp / "clip.mp4"
+    video = tmp / "inputs" / "clip.mp4"
     writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"mp4v"), 30, (64, 64))
     for k in range(3):
         writer.write(cv2.imread(str(frames / f"f{k}.png")))
     writer.release()
-    used = tmp / "used"
+    used = tmp / "inputs" / "used"
     used.mkdir()
     (used / "track.csv").write_text("frame\n")
     huge = tmp / "huge.png"
@@ -270,17 +312,19 @@ def main() -> None:
         for area, cases in (("trackers", tracker_cases()), ("control", control_cases()), ("env", env_cases()),
                             ("cli", cli_cases(Path(tmp))), ("outputs, plugins, files", safety_cases(Path(tmp)))):
             for label, fn in cases:
-                outcome, detail = classify(fn)
+                outcome, detail = classify(fn, Path(tmp) / "inputs" if area.startswith("outputs") else None)
                 rows.append({"area": area, "input": label, "outcome": outcome, "detail": detail})
     table = {}
     for r in rows:
-        t = table.setdefault(r["area"], {"tried": 0, "clear": 0, "raw traceback": 0, "silently accepted": 0})
+        t = table.setdefault(r["area"], dict.fromkeys(OUTCOMES, 0) | {"tried": 0})
         t["tried"] += 1
         t[r["outcome"]] += 1
-    total = {k: sum(t[k] for t in table.values()) for k in ("tried", "clear", "raw traceback", "silently accepted")}
-    print("| area | tried | clear errors | raw tracebacks | silently accepted |\n|---|---|---|---|---|")
+    total = {k: sum(t[k] for t in table.values()) for k in ("tried", *OUTCOMES)}
+    print("| area | tried | clear errors | raw tracebacks | silently accepted | data lost | hangs |\n"
+          "|---|---|---|---|---|---|---|")
     for area, t in {**table, "all": total}.items():
-        print(f"| {area} | {t['tried']} | {t['clear']} | {t['raw traceback']} | {t['silently accepted']} |")
+        print(f"| {area} | {t['tried']} | {t['clear']} | {t['raw traceback']} | {t['silently accepted']} | "
+              f"{t['data lost']} | {t['hang']} |")
     for r in rows:
         if r["outcome"] != "clear":
             print(f"  {r['outcome']}: {r['input']} -> {r['detail']}")
