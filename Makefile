@@ -1,25 +1,34 @@
 # Two entry points: `make demo` (set up + main demo) and `make test` (set up + lint + tests).
+# The demo's set-up installs the package and what it runs on; the test tools (pytest, hypothesis, Ray, ruff, the
+# test plugins) only come with `make test`.
 VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
+TEST_STAMP := $(VENV)/.test-installed-stamp
 
-.PHONY: install demo test bench-track bench-servo
+.PHONY: install install-test demo test
 
-$(STAMP): pyproject.toml tests/plugins/pyproject.toml
+$(STAMP): pyproject.toml
 	python3 -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	# CPU torch first (a local wheel here); the package pins the same version, so nothing else is pulled
 	$(PY) -m pip install --quiet torch==2.13.0
+	$(PY) -m pip install --quiet -e .
+	touch $(STAMP)
+
+$(TEST_STAMP): $(STAMP) pyproject.toml tests/plugins/pyproject.toml
 	$(PY) -m pip install --quiet -e ".[test]"
 	# the outside methods the plugin tests drive (a tracker, a law, a policy registered by entry point)
 	$(PY) -m pip install --quiet --no-deps -e tests/plugins
-	touch $(STAMP)
+	touch $(TEST_STAMP)
 
 install: $(STAMP)
+
+install-test: $(TEST_STAMP)
 
 demo: $(STAMP)
 	$(VENV)/bin/hvs-sim demo --out out/demo
 
-test: $(STAMP)
+test: $(TEST_STAMP)
 	$(VENV)/bin/ruff check .
 	$(PY) -m pytest tests
