@@ -15,13 +15,13 @@ from hvs_sim.errors import ConfigError, HvsError, OutputError
 from hvs_sim.outputs import check_output_file, fresh_out_dir, prepare_out_dir, write_atomic
 
 
-def _scenario_from_args(args):
+def _target_overrides(args) -> dict:
+    """The target that --target, --target-image and --target-width name, as make_scenario keywords (run, scene,
+    budget)."""
     from hvs_sim.scene.flag_art import FLAG_NAMES
-    from hvs_sim.scene.scenarios import CameraConfig, make_scenario
     from hvs_sim.scene.textures import NATURAL_TEXTURES
 
-    overrides = {"camera": CameraConfig(width=args.width, height=args.height, fovy=args.fovy, sensor=args.camera,
-                                        multisample=args.multisample)}
+    overrides = {}
     if args.target:
         if args.target not in FLAG_NAMES + NATURAL_TEXTURES:
             raise ConfigError(f"unknown target {args.target!r}; accepted: a flag ({', '.join(FLAG_NAMES)}) or a "
@@ -32,9 +32,19 @@ def _scenario_from_args(args):
     if args.target or args.target_image:  # what the user names replaces the preset's target, whatever kind it was
         overrides.setdefault("target_texture", None)
         overrides["target_image"] = args.target_image
+    if args.target_width is not None:
+        overrides["target_width"] = args.target_width
+    return overrides
+
+
+def _scenario_from_args(args):
+    from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+
+    overrides = {"camera": CameraConfig(width=args.width, height=args.height, fovy=args.fovy, sensor=args.camera,
+                                        multisample=args.multisample), **_target_overrides(args)}
     if args.wall_images and not args.wall:
         overrides["wall"] = "flags"  # the folder replaces the preset's wall set
-    for key in ("target_width", "wall", "wall_images", "people"):
+    for key in ("wall", "wall_images", "people"):
         if getattr(args, key) is not None:
             overrides[key] = getattr(args, key)
     if getattr(args, "shadows", False):
@@ -306,8 +316,9 @@ def cmd_bench(args) -> int:
 
 
 def _apply_suite(args) -> None:
-    """--suite NAME: the suite's frozen settings; the user's --methods are run beside its reference methods, and any
-    option that would change the suite's episodes is refused."""
+    """--suite NAME: the suite's frozen settings; the methods named run alone (beside the reference methods in a suite
+    `with_reference`, or those alone when none is named), and any option that would change the suite's episodes is
+    refused."""
     from hvs_sim.bench.suites import get_suite
 
     suite = get_suite(args.suite, args.what)
@@ -396,10 +407,11 @@ def _cmd_bench_sim(args) -> int:
                 given[field] = getattr(args, opt)
         suite = getattr(args, "suite_obj", None)
         if suite is not None:
+            from hvs_sim.bench.suites import TILT_MAX_DEG
+
             given.update(extra_steps=suite.extra_steps, width=suite.width, height=suite.height,
-                         tilt_deg=0.0 if suite.start == "4dof" else 15.0, success_px=suite.success_px, suite=suite.name)
-            del given["scenarios"], given["seeds"]
-            given.update(scenarios=suite.scenarios, seeds=suite.seeds)
+                         tilt_deg=0.0 if suite.start == "4dof" else TILT_MAX_DEG, success_px=suite.success_px,
+                         suite=suite.name, scenarios=suite.scenarios, seeds=suite.seeds)
         cfg = ServoBenchConfig(workers=args.workers, camera=args.camera, people=args.people,
                                steps=30 if args.smoke else None, **given)
         summary = run_servo_bench(cfg, Path(args.out))
@@ -446,21 +458,8 @@ def cmd_sweep(args) -> int:
 def cmd_budget(args) -> int:
     """`hvs-sim budget`: the pose bound for each camera, a table, a JSON and a figure against standoff and size."""
     from hvs_sim.bench import budget as b
-    from hvs_sim.scene.flag_art import FLAG_NAMES
-    from hvs_sim.scene.textures import NATURAL_TEXTURES
 
-    scene = {}
-    if args.target and args.target_image:
-        raise ConfigError("give --target NAME or --target-image PATH, not both")
-    if args.target:
-        if args.target not in FLAG_NAMES + NATURAL_TEXTURES:
-            raise ConfigError(f"unknown target {args.target!r}; accepted: a flag ({', '.join(FLAG_NAMES)}) or a natural "
-                              f"texture ({', '.join(NATURAL_TEXTURES)}); or --target-image PATH")
-        scene["target_flag" if args.target in FLAG_NAMES else "target_texture"] = args.target
-    if args.target_image:
-        scene.update(target_texture=None, target_image=args.target_image)
-    if args.target_width is not None:
-        scene["target_width"] = args.target_width
+    scene = _target_overrides(args)
     rows = [b.budget(cam, args.standoff, **scene) for cam in dict.fromkeys(args.camera)]  # before --out is cleared
     out = fresh_out_dir(args.out, args.overwrite, ("budget.json", "budget.md", "budget.png"))
     text = b.table(rows)
@@ -632,7 +631,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"trackers to compare: {', '.join(TRACKER_NAMES)}, or outside trackers (module:callable, "
                         "file.py:callable, registered or entry-point names); servo: TRACKER[:WARP][/CONTROLLER] or "
                         "policy=NAME, with ground_truth, none/dvs, and outside references in braces: "
-                        "{mypkg.track:make}:homography/{mypkg.law:make} (the hybrid_* are ablations, see "
+                        "{mypkg.track:make}/{mypkg.law:make} (the hybrid_* are ablations, see "
                         "hvs_sim/tracking/registry.py; default: the benchmark's set)")
     p.add_argument("--damping", type=float, default=None,
                    help=f"servo only: damped pseudo-inverse, μ = damping × σ_max(L) (IBVSConfig.damping; default: {TRACKED_6DOF_DAMPING} for "

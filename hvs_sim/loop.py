@@ -202,14 +202,17 @@ def check_start_pose(scenario: Scenario) -> None:
     check_start_in_view(scene, Renderer(scene))
 
 
-def check_combination(tracker: str, config: LoopConfig) -> None:
-    """The rules between the tracker's name and the loop's settings that need nothing built (ServoLoop applies them,
-    and a sweep checks its whole grid with them before it runs)."""
-    image_law = config.controller == "dvs"
+def check_combination(tracker: str, config: LoopConfig, image_law: bool | None = None) -> None:
+    """The rules between the tracker's name and the loop's settings (ServoLoop applies them, and a sweep checks its
+    whole grid with them before it runs). `image_law`: whether the law reads only the images; None: what the settings
+    say without building the law (dvs does; an outside law is given the benefit of the doubt)."""
+    unknown = image_law is None and config.controller not in CONTROLLERS  # an outside law not built: either may hold
+    if image_law is None:
+        image_law = config.controller == "dvs"
     if config.policy is not None and tracker != plugins.NO_TRACKER:
         raise ConfigError(f"a policy ({config.policy!r}) replaces tracker and law: give tracker 'none', not "
                           f"{tracker!r}")
-    if tracker == plugins.NO_TRACKER and config.policy is None and config.controller in CONTROLLERS and not image_law:
+    if tracker == plugins.NO_TRACKER and config.policy is None and not (image_law or unknown):
         raise ConfigError(f"tracker 'none' needs a law that reads only the images (dvs, or an outside law with "
                           f"uses_features = False) or a policy; controller {config.controller!r} needs features")
     if image_law and tracker != plugins.NO_TRACKER:
@@ -245,23 +248,17 @@ class ServoLoop:
     def __init__(self, scenario: Scenario, tracker: str = "deep_lk", config: LoopConfig = LoopConfig(), **tracker_config):
         if scenario.mount != "arm":
             raise ConfigError(f"the closed loop needs mount='arm', got {scenario.mount!r}")
-        check_combination(tracker, config)
-        self.tracker = loop_tracker(tracker, tracker_config)
-        self.scenario, self.tracker_name, self.config = scenario, tracker, config
-        self.oracle = tracker == plugins.GROUND_TRUTH
-        # an outside law or policy, built before the scene like the tracker
+        # an outside law or policy, built before the scene (and checked with the tracker's name before the tracker)
         self.law = None if config.controller in CONTROLLERS else plugins.build("controller", config.controller)
         self.policy = None if config.policy is None else plugins.build("policy", config.policy)
         self.image_law = config.controller == "dvs" or (self.law is not None and not self.law.uses_features)
+        check_combination(tracker, config, self.image_law)
+        self.tracker = loop_tracker(tracker, tracker_config)
+        self.scenario, self.tracker_name, self.config = scenario, tracker, config
+        self.oracle = tracker == plugins.GROUND_TRUTH
         # what a law's failure may raise and the run records as a fault: the built-ins raise HvsError (PBVS on a
         # degenerate quad); an outside method anything
         self._law_errors = Exception if self.law is not None or self.policy is not None else HvsError
-        if tracker == plugins.NO_TRACKER and self.policy is None and not self.image_law:
-            raise ConfigError(f"tracker 'none' needs a law that reads only the images (dvs, or an outside law with "
-                              f"uses_features = False) or a policy; controller {config.controller!r} needs features")
-        if self.image_law and tracker != plugins.NO_TRACKER:
-            raise ConfigError(f"controller {config.controller!r} reads the images, not tracked features: give tracker "
-                              f"'none', not {tracker!r}")
         self.scene = Scene(scenario)
         self.renderer = Renderer(self.scene)
         self.arm = ArmDriver(self.scene)
@@ -350,7 +347,7 @@ class ServoLoop:
         law = IBVSController if cfg.controller == "ibvs" else PBVSController
         return law(K, desired_px, self.desired_depth, self.ibvs_config, self.dofs)
 
-    def _control_input(self, law, features_px, desired_px, true_depths, mode, motion, frame, goal, step) -> ControlInput:
+    def _control_input(self, features_px, desired_px, true_depths, mode, motion, frame, goal, step) -> ControlInput:
         """What every law is given at a step (control/protocol.py); the features and s* in the pinhole image."""
         K = self.renderer.K
         reads_images = self.law is not None or self.image_law  # IBVS and PBVS read no image: no copy for them
@@ -510,8 +507,7 @@ class ServoLoop:
                         ctrl = self._bounded(self.policy.act(self._policy_input(frame, gt, goal, desired, step)),
                                              self.dofs)
                     else:
-                        inp = self._control_input(controller, control_px, desired, cap.depths, mode, motion, frame,
-                                                  goal, step)
+                        inp = self._control_input(control_px, desired, cap.depths, mode, motion, frame, goal, step)
                         ctrl = controller.compute(inp)
                         if self.law is not None:  # (twist, dofs): bounded as the built-in laws bound theirs
                             ctrl = self._bounded(ctrl[0], ctrl[1] or self.dofs)

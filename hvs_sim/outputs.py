@@ -59,13 +59,11 @@ def fresh_out_dir(out, overwrite: bool, outputs: tuple[str, ...], flag: str = "-
 def write_atomic(path, text: str) -> None:
     """Write through a temporary file in the same folder (named by this process), then rename: a reader never sees
     half a file, and an interrupted write leaves the old one."""
-    import os
-
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp = temporary_beside(path)
     try:
         tmp.write_text(text)
-        os.replace(tmp, path)
+        settle(tmp, path, keep=True)
     except OSError as exc:  # a full disk, a folder gone: say which file, keep the one that was there
         raise OutputError(f"could not write {path} ({exc.strerror or exc}); "
                           + ("the previous complete file is kept" if path.exists() else "nothing was written")) from None
@@ -80,6 +78,16 @@ def temporary_beside(path) -> Path:
 
     path = Path(path)
     return path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
+
+
+def settle(tmp: Path, final, keep: bool) -> None:
+    """A temporary written beside its target (temporary_beside), renamed into place when `keep`, else removed."""
+    import os
+
+    if keep:
+        os.replace(tmp, final)
+    else:
+        Path(tmp).unlink(missing_ok=True)
 
 
 def check_apart(inputs, outputs: dict[str, Path | None]) -> None:

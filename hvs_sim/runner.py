@@ -5,7 +5,6 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
-import os
 import time
 from dataclasses import asdict
 from pathlib import Path
@@ -14,7 +13,7 @@ import numpy as np
 
 from hvs_sim.errors import ConfigError
 from hvs_sim.loop import LoopConfig, RunStats, ServoLoop, StepRecord
-from hvs_sim.outputs import temporary_beside, write_atomic
+from hvs_sim.outputs import settle, temporary_beside, write_atomic
 from hvs_sim.scene.scenarios import Scenario
 
 FIGURE_RISING_OCCLUSION = 0.3  # frames.png's second tile: the first step with more of the target hidden
@@ -90,14 +89,14 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
         keep = completed or (interrupted and stats.n > 0)  # a run that failed leaves no half result behind
         if csv_file is not None:
             csv_file.close()
-            os.replace(csv_tmp, steps_csv_path(json_path)) if keep else csv_tmp.unlink(missing_ok=True)
+            settle(csv_tmp, steps_csv_path(json_path), keep)
         if logger is not None:  # a complete recording of the steps so far, whatever stopped the run
             logger.drain()  # the queued steps first: whether logging failed is known after them
             if stats.n:
                 logger.log_summary(_summary(scenario, tracker, stats, logger, interrupted))
             logger.close()
             if rrd_tmp is not None and rrd_tmp.exists():  # a complete recording of the steps so far
-                os.replace(rrd_tmp, rrd) if keep else rrd_tmp.unlink()
+                settle(rrd_tmp, rrd, keep)
         if json_path and keep:
             write_atomic(json_path, json.dumps(_summary(scenario, tracker, stats, logger, interrupted), indent=2))
     summary = _summary(scenario, tracker, stats, logger, False)

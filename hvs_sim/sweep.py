@@ -115,7 +115,10 @@ def _check_value(kind: str, key: str, value, accepted) -> None:
     elif key == "tracker" and value not in accepted:  # an outside tracker (hvs_sim.plugins)
         from hvs_sim.plugins import check, check_any_tracker
 
-        check_any_tracker(value) if kind == "track" else check("tracker", value)
+        if kind == "track":
+            check_any_tracker(value)
+        else:
+            check("tracker", value)
     elif value not in accepted:
         raise choice_error(key, value, accepted)
 

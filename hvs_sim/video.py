@@ -48,8 +48,8 @@ from tqdm import tqdm
 
 from hvs_sim.cliargs import DEFAULT_TRACKER, add_settings_option, parse_settings
 from hvs_sim.errors import InputError
-from hvs_sim.outputs import check_apart, check_output_file, fresh_out_dir, temporary_beside
-from hvs_sim.plugins import make_any_tracker
+from hvs_sim.outputs import check_apart, check_output_file, fresh_out_dir, settle, temporary_beside
+from hvs_sim.plugins import check_any_tracker, make_any_tracker
 from hvs_sim.tracking import TRACKER_NAMES, Track
 from hvs_sim.tracking.frames import MIN_ROI, check_roi
 
@@ -82,13 +82,6 @@ def parse_roi(text: str) -> tuple[int, int, int, int]:
     if len(roi) != 4:
         raise InputError(f"--roi must be 4 integers x,y,w,h separated by commas (e.g. 120,80,64,48), got {text!r}")
     return roi
-
-
-def check_tracker_name(name: str) -> str:
-    """A tracker of the registry or an outside one (hvs_sim.plugins); ConfigError naming what is accepted."""
-    from hvs_sim.plugins import check_any_tracker
-
-    return check_any_tracker(name)
 
 
 @dataclass
@@ -300,11 +293,9 @@ class TrackOutputs:
 
     def close(self) -> None:
         """Close the files and rename each into place (the frames written so far, also after Ctrl-C)."""
-        import os
-
         self._open.close()
         for tmp, final in zip(self._temporaries(), self.final, strict=True):
-            os.replace(tmp, final)
+            settle(tmp, final, keep=True)
 
     def discard(self) -> None:
         """Close and remove what this run wrote: a run that failed part-way leaves no result behind, and nothing that
@@ -312,8 +303,8 @@ class TrackOutputs:
         try:
             self._open.close()
         finally:  # a close that fails again (a full disk) must not leave the temporaries behind
-            for path in self._temporaries():
-                path.unlink(missing_ok=True)
+            for tmp, final in zip(self._temporaries(), self.final, strict=True):
+                settle(tmp, final, keep=False)
 
     @property
     def paths(self) -> list[Path]:
@@ -360,7 +351,7 @@ def track_footage(path, roi, tracker: str = DEFAULT_TRACKER, out="out/track", rr
     """Check every input, then stream the frames through the tracker into the outputs.
     settings: the tracker's config fields (make_tracker keywords), e.g. other weights. An --out holding anything
     is refused unless `overwrite` (then its earlier track.csv and annotated.mp4 are replaced when this run ends)."""
-    tracker = check_tracker_name(tracker)
+    tracker = check_any_tracker(tracker)
     roi = parse_roi(roi) if isinstance(roi, str) else roi
     check_apart([path], {"--out's track.csv": Path(out) / CSV_NAME, "--out's annotated.mp4": Path(out) / VIDEO_NAME,
                          "--rrd": None if rrd is None else Path(rrd)})

@@ -35,6 +35,16 @@ def make_module_level_tracker(**settings):  # registered below: importable as te
     return KLTHomography(**settings)
 
 
+def _refused_for_workers(name, factory):
+    """A factory registered under `name` that worker processes could not import is refused for them, saying why."""
+    hvs_sim.register_tracker(name, factory)
+    try:
+        with pytest.raises(ConfigError, match="worker processes cannot import"):
+            plugins.portable("tracker", name)
+    finally:
+        plugins.unregister("tracker", name)
+
+
 @pytest.fixture
 def registered():
     hvs_sim.register_tracker("mine", make_module_level_tracker)
@@ -59,12 +69,7 @@ def test_a_tracker_registered_in_python_runs_and_travels_to_workers_as_its_modul
     recs, s = _run(registered, steps=6, template_from="start")
     assert s["fault_steps"] == 0 and recs[-1].tracker_error_px < 2.0
     assert plugins.portable("tracker", registered) == "test_plugins:make_module_level_tracker"
-    hvs_sim.register_tracker("closure", lambda: None)
-    try:
-        with pytest.raises(ConfigError, match="worker processes cannot import"):
-            plugins.portable("tracker", "closure")
-    finally:
-        plugins.unregister("tracker", "closure")
+    _refused_for_workers("closure", lambda: None)
 
 
 def test_a_misbehaving_tracker_and_law_are_recorded_faults_and_the_arm_holds():
@@ -245,12 +250,7 @@ def test_review_cases_outside_code_cannot_corrupt_or_crash(tmp_path, capsys):
 def test_portable_refuses_a_partial_with_the_reason():
     import functools
 
-    hvs_sim.register_tracker("partial_one", functools.partial(make_module_level_tracker, max_points=50))
-    try:
-        with pytest.raises(ConfigError, match="worker processes cannot import"):
-            plugins.portable("tracker", "partial_one")
-    finally:
-        plugins.unregister("tracker", "partial_one")
+    _refused_for_workers("partial_one", functools.partial(make_module_level_tracker, max_points=50))
 
 
 def test_dvs_commands_only_the_dofs_it_is_given():

@@ -14,11 +14,11 @@ from __future__ import annotations
 
 import dataclasses
 
-import cv2
 import numpy as np
 
 from hvs_sim.camera_model import jpeg_variance, output_variance, sensor_preset, steady_gain
 from hvs_sim.control.bound import PoseBound, pose_bound
+from hvs_sim.control.dvs import gradients
 from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
 from hvs_sim.control.ibvs import GOAL_FRAMES
 from hvs_sim.errors import ConfigError, InputError
@@ -63,8 +63,7 @@ def goal_view(scenario):
 def view_bound(clean: np.ndarray, grey_var: np.ndarray, K: np.ndarray, roi, depth: float) -> PoseBound:
     """The 6-DOF bound from the template region of a clean view and its per-pixel grey noise variance."""
     grey = clean.astype(np.float64) @ GREY
-    gx = cv2.Sobel(grey, cv2.CV_64F, 1, 0, ksize=3) / 8.0
-    gy = cv2.Sobel(grey, cv2.CV_64F, 0, 1, ksize=3) / 8.0
+    gx, gy = gradients(grey)
     x0, y0, w, h = roi
     v, u = np.mgrid[y0:y0 + h, x0:x0 + w]
     fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]

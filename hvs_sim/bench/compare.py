@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hvs_sim.bench.suites import TILT_MAX_DEG
 from hvs_sim.errors import ConfigError
 
 # the settings that make two runs' episodes the same ones (ServoBenchConfig fields)
@@ -46,8 +47,8 @@ def _check_same(a: dict, b: dict, names: tuple[str, str]) -> None:
                           "version compare episode by episode")
     for key in EPISODE_FIELDS:
         va, vb = a["config"].get(key), b["config"].get(key)
-        if key == "tilt_deg":  # results before the field existed drew 15° tilts
-            va, vb = 15.0 if va is None else va, 15.0 if vb is None else vb
+        if key == "tilt_deg":  # results before the field existed drew the 6-DOF tilts
+            va, vb = TILT_MAX_DEG if va is None else va, TILT_MAX_DEG if vb is None else vb
         if va != vb:
             raise ConfigError(f"{names[0]} and {names[1]} differ in {key} ({va!r} against {vb!r}): their episodes are "
                               "not the same")

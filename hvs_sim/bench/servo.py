@@ -4,8 +4,8 @@ A method is a loop tracker with, optionally, its warp model and the servo law, `
 `ground_truth`, `ground_truth/pbvs`, `hybrid:homography`, `hybrid` (the similarity hybrid, which controls 4 DOF),
 `none/dvs` (photometric servoing, no tracker), or a policy in place of both, `policy=NAME`. TRACKER, CONTROLLER and
 NAME are built-in names, registered or entry-point names, or outside references written in braces so that their
-colon is not read as the warp's: `{mypkg.track:make}:homography/{mypkg.law:make}`, `policy={path/net.py:make}`
-(hvs_sim.plugins). Start poses are drawn over the ranges of the classic
+colon is not read as the warp's: `{mypkg.track:make}/{mypkg.law:make}`, `policy={path/net.py:make}`
+(hvs_sim.plugins; an outside tracker declares its own warp). Start poses are drawn over the ranges of the classic
 IBVS test cases (ViSP's tutorials, Chaumette's examples), scaled to the 0.8 m standoff: lateral
 ±10 cm, target depth 0.7–1.4 × the standoff, roll ±60°, pitch and yaw ±15°; a draw the arm cannot reach or
 from which the target is not fully in view is drawn again (seeded)."""
@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from hvs_sim.bench.pool import collect_jobs, config_json
+from hvs_sim.bench.suites import TILT_MAX_DEG
 from hvs_sim.camera_model import REALISTIC_PRESET
 from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.loop import LoopConfig
@@ -32,7 +33,7 @@ RESULTS_SCHEMA = "hvs_sim.servo-results/2"  # docs/results-schema.md
 # start offsets (camera frame): dx, dy (m), the target's depth as a share of the standoff, roll, pitch, yaw (rad).
 # Results before stop 30 (servo_6dof_v4 and older) were drawn over a depth of 0.6-1.3 (a sign slip, found in review)
 LATERAL_M, DEPTH_RANGE = 0.10, (0.7, 1.4)
-ROLL_MAX, TILT_MAX = np.radians(60.0), np.radians(15.0)
+ROLL_MAX, TILT_MAX = np.radians(60.0), np.radians(TILT_MAX_DEG)
 MAX_DRAWS = 50  # start poses drawn per episode before giving up (unreachable or target out of view)
 
 
@@ -60,7 +61,7 @@ class ServoBenchConfig:
     feature_filter: float | None = None  # LoopConfig.feature_filter of the episodes with tracked corners (None: default)
     width: int = 640  # image size of every episode
     height: int = 480
-    tilt_deg: float = 15.0  # start poses' pitch and yaw bound (0: the 4-DOF distribution)
+    tilt_deg: float = TILT_MAX_DEG  # start poses' pitch and yaw bound (0: the 4-DOF distribution)
     suite: str | None = None  # the versioned suite these settings are (bench/suites.py), recorded with the results
 
     def __post_init__(self):
@@ -71,14 +72,6 @@ class ServoBenchConfig:
 
         if not self.trackers:
             raise ConfigError("the servo benchmark needs at least one method")
-        for m in self.trackers:
-            tracker, _, controller, policy = parse_method(m)
-            try:
-                for kind, text in (("tracker", tracker), ("controller", controller), ("policy", policy)):
-                    if text is not None:
-                        plugins.check(kind, text)
-            except ConfigError as exc:
-                raise ConfigError(f"servo method {m!r}: {exc}") from None
         for what, values, accepted in (("scenario", self.scenarios, SCENARIO_NAMES),
                                        ("people style", (self.people,), PEOPLE_STYLES)):
             if not values:
@@ -88,16 +81,17 @@ class ServoBenchConfig:
                     raise choice_error(what, v, accepted)
         from hvs_sim.loop import check_combination
 
-        for m in self.trackers:  # e.g. a residual tracker with a homography: refused here, not in a worker
+        for m in self.trackers:  # what a worker would refuse is refused here, before any episode runs
             tracker, warp, controller, policy = parse_method(m)
             try:
+                plugins.check("tracker", tracker)  # LoopConfig checks the law and the policy
                 check_combination(tracker, LoopConfig(controller=controller, policy=policy))
             except ConfigError as exc:
                 raise ConfigError(f"servo method {m!r}: {exc}") from None
             if warp and tracker not in TRACKER_NAMES:
                 raise ConfigError(f"servo method {m!r}: an outside tracker declares its warp itself (its `warp` "
                                   f"attribute); leave :{warp} out")
-            if warp:
+            if warp:  # e.g. a residual tracker with a homography
                 try:
                     check_tracker(tracker, warp=warp)
                 except ConfigError as exc:
@@ -117,7 +111,7 @@ class ServoBenchConfig:
         sensor_preset(self.camera)
         check_number("width", self.width, 64, 4096, integer=True)
         check_number("height", self.height, 64, 4096, integer=True)
-        check_number("tilt_deg", self.tilt_deg, 0, 15)
+        check_number("tilt_deg", self.tilt_deg, 0, TILT_MAX_DEG)
         if self.damping is not None:
             check_number("damping", self.damping, 0, 1)
         LoopConfig(template_from=self.template_from, roi_inset_px=self.roi_inset_px, goal_frames=self.goal_frames,
@@ -170,7 +164,7 @@ def parse_method(method: str) -> tuple[str, str | None, str, str | None]:
             or (":" in tracker and not rest.startswith("{")):
         raise ConfigError(f"servo method {method!r} invalid; accepted: TRACKER[:WARP][/CONTROLLER] with WARP one of "
                           f"{', '.join(WARPS)} (not for ground_truth or none) and CONTROLLER ibvs, pbvs, dvs or a "
-                          "plugin, e.g. hybrid:homography/pbvs, none/dvs, {mypkg.track:make}:homography; or "
+                          "plugin, e.g. hybrid:homography/pbvs, none/dvs, {mypkg.track:make}/{mypkg.law:make}; or "
                           "policy=NAME")
     return tracker, warp or None, controller, None
 
@@ -223,6 +217,7 @@ def episode_scenario(scen_name: str, seed: int, tilt: float = TILT_MAX, **overri
 def _episode(args):
     import torch
 
+    from hvs_sim import plugins
     from hvs_sim.control.ibvs import IBVSConfig
     from hvs_sim.loop import template_view
     from hvs_sim.runner import run_episode
@@ -235,7 +230,7 @@ def _episode(args):
     scen = episode_scenario(scen_name, seed, tilt,
                             camera=CameraConfig(sensor=camera, width=size[0], height=size[1]), people=people)
     n = steps if steps else scen.n_frames + extra
-    tracked = tracker not in ("ground_truth", "none")
+    tracked = tracker not in (plugins.GROUND_TRUTH, plugins.NO_TRACKER)
     goal_template = tracked and template_view(template_from, tracked and warp == "homography") == "goal"
     loop_config = LoopConfig(steps=n, keep_frames=False, controller=controller, policy=policy,
                              ibvs=IBVSConfig(damping=damping), template_from=template_from if tracked else None,

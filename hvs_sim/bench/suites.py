@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 from hvs_sim.errors import choice_error
 
+TILT_MAX_DEG = 15.0  # pitch and yaw bound of the 6-DOF start poses (the 4-DOF ones draw none)
+
 
 @dataclass(frozen=True)
 class Suite:

@@ -38,6 +38,11 @@ def luminance_interaction(Ix: np.ndarray, Iy: np.ndarray, x: np.ndarray, y: np.n
     return -(Ix[:, None] * Lx + Iy[:, None] * Ly)
 
 
+def gradients(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(∂I/∂u, ∂I/∂v) of a grey float image in intensity per pixel (3×3 Sobel, normalised)."""
+    return (cv2.Sobel(image, cv2.CV_64F, 1, 0, ksize=3) / 8.0, cv2.Sobel(image, cv2.CV_64F, 0, 1, ksize=3) / 8.0)
+
+
 def grey(image: np.ndarray) -> np.ndarray:
     """An RGB uint8 (or grey) image as smoothed float intensities in [0, 255]."""
     img = np.asarray(image)
@@ -64,8 +69,7 @@ class DVSController:
             raise InputError(f"DVS region {tuple(roi)} must lie inside the {g.shape[1]}×{g.shape[0]} goal image")
         v, u = np.mgrid[y0:y0 + h:DVS_STRIDE, x0:x0 + w:DVS_STRIDE]
         self.u, self.v = u.ravel(), v.ravel()
-        gx = cv2.Sobel(g, cv2.CV_64F, 1, 0, ksize=3) / 8.0  # intensity per pixel
-        gy = cv2.Sobel(g, cv2.CV_64F, 0, 1, ksize=3) / 8.0
+        gx, gy = gradients(g)
         fx, fy, cx, cy = self.K[0, 0], self.K[1, 1], self.K[0, 2], self.K[1, 2]
         x, y = (self.u - cx) / fx, (self.v - cy) / fy
         self.I_star = g[self.v, self.u]

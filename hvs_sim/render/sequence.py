@@ -5,7 +5,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import os
 from collections.abc import Iterator
 from dataclasses import asdict
 from pathlib import Path
@@ -14,7 +13,7 @@ import cv2
 import numpy as np
 
 from hvs_sim.errors import OutputError
-from hvs_sim.outputs import temporary_beside, write_atomic
+from hvs_sim.outputs import settle, temporary_beside, write_atomic
 from hvs_sim.render.renderer import GroundTruth, Renderer
 from hvs_sim.scene.scenarios import Scenario
 from hvs_sim.scene.world import Scene
@@ -72,16 +71,18 @@ def write_sequence(scenario: Scenario, out_dir: Path, fmt: str = "mp4", n_frames
     else:
         (out_dir / "frames").mkdir(exist_ok=True)
     rows, cams, joints, corners = [], [], [], []
+    done = False
     try:
         _render_frames(scenario, total, progress, writer, out_dir, rows, cams, joints, corners)
-    except BaseException:
+        done = True
+    finally:
         if writer is not None:
-            writer.close()
-            video_tmp.unlink(missing_ok=True)
-        raise
-    if writer is not None:
-        writer.close()
-        os.replace(video_tmp, out_dir / "frames.mp4")
+            closed = False
+            try:
+                writer.close()
+                closed = True
+            finally:  # a video whose render or close failed is removed, never renamed into place
+                settle(video_tmp, out_dir / "frames.mp4", keep=done and closed)
     _write_ground_truth(scenario, out_dir, rows, cams, joints, corners)
     meta = {"scenario": _json_safe(asdict(scenario)), "frames": total, "format": fmt,
             "peak_occlusion": float(max(r["occlusion"] for r in rows))}
@@ -118,6 +119,7 @@ def _write_ground_truth(scenario, out_dir, rows, cams, joints, corners) -> None:
         w.writerows(rows)
         write_atomic(out_dir / "ground_truth.csv", f.getvalue())
     npz_tmp = temporary_beside(out_dir / "ground_truth.npz")
+    done = False
     try:
         np.savez_compressed(
             npz_tmp, time=np.array([r["time"] for r in rows]),
@@ -125,6 +127,6 @@ def _write_ground_truth(scenario, out_dir, rows, cams, joints, corners) -> None:
             occlusion=np.array([r["occlusion"] for r in rows]), camera_pose=np.array(cams),
             joint_positions=np.array(joints), K=Renderer.intrinsics_of(scenario),
             distortion=np.array(scenario.camera.sensor.distortion))
-        os.replace(npz_tmp, out_dir / "ground_truth.npz")
+        done = True
     finally:
-        npz_tmp.unlink(missing_ok=True)
+        settle(npz_tmp, out_dir / "ground_truth.npz", keep=done)
