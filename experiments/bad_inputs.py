@@ -39,6 +39,23 @@ def _snapshot(root: Path | None) -> dict:
     return {p: hashlib.sha1(p.read_bytes()).hexdigest() for p in sorted(root.rglob("*")) if p.is_file()}
 
 
+def _full_disk(where: Path) -> bool:
+    """A 64 kB tmpfs at `where`, filled (unmounted at exit); False where mounting is not allowed (not root)."""
+    import atexit
+    import subprocess
+
+    where.mkdir()
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(where)], capture_output=True,
+                      check=False).returncode:
+        return False
+    atexit.register(subprocess.run, ["umount", "-l", str(where)], check=False)
+    with contextlib.suppress(OSError), open(where / "filler", "wb") as f:
+        for _ in range(64):
+            f.write(b"\0" * 4096)
+            f.flush()
+    return True
+
+
 def classify(fn, inputs: Path | None = None) -> tuple[str, str]:
     """clear / raw traceback / silently accepted; "data lost" when a file under `inputs` changed or vanished, "hang"
     when the case ran past HANG_S."""
@@ -244,6 +261,10 @@ def safety_cases(tmp: Path):
             Path(argv[1]).mkdir(exist_ok=True)
             (Path(argv[1]) / "f0.png").write_bytes(huge.read_bytes())
         yield "hvs-sim " + label, lambda argv=argv: main(argv)
+    full = tmp / "full_disk"
+    if _full_disk(full):  # root only: a mounted tmpfs filled to the last byte
+        yield "hvs-sim track --rrd onto a full disk", lambda: main(["track", str(frames), *roi, "--out", str(tmp / "o5"),
+                                                                    "--rrd", str(full / "x.rrd")])
     for label, text in {"evaluate = ['no']": 'evaluate = ["no"]', "hold_steps = [2.5]": "hold_steps = [2.5]",
                         "converge_px = [nan]": "converge_px = [nan]", "gain = [2, 2.0]": "gain = [2, 2.0]",
                         "tracker = ['nosuch.mod:make']": 'tracker = ["nosuch.mod:make"]'}.items():
@@ -308,7 +329,7 @@ def main() -> None:
     ap.add_argument("--json", default="experiments/results/bad_inputs.json")
     args = ap.parse_args()
     rows = []
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory(ignore_cleanup_errors=True) as tmp:  # a full-disk mount may stay busy
         for area, cases in (("trackers", tracker_cases()), ("control", control_cases()), ("env", env_cases()),
                             ("cli", cli_cases(Path(tmp))), ("outputs, plugins, files", safety_cases(Path(tmp)))):
             for label, fn in cases:

@@ -155,12 +155,16 @@ def cmd_run(args) -> int:
     print(json.dumps(brief, indent=2))
     if not summary["held_to_end"]:
         print(f"not converged at the end: {summary['not_converged_because']}")
+    if "recording_error" in summary:
+        print(f"hvs-sim: {summary['recording_error']}", file=sys.stderr)
     if summary["faults"]:
         print(f"{summary['fault_steps']} step(s) faulted, the arm held for them: " + "; ".join(summary["faults"][:3]))
     if args.json:
         print(f"summary: {args.json}")
     if args.figures:
         print("figures: " + ", ".join(summary["figures"]))
+    if "recording_error" in summary:
+        return EXIT_OUTPUT_FAILED
     if args.rrd:
         viewer = "rerun" if shutil.which("rerun") else str(Path(sys.executable).parent / "rerun")
         print(f"recording: {args.rrd}  (open it with: {viewer} {args.rrd})")
@@ -716,6 +720,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 EXIT_SIGINT, EXIT_SIGTERM = 130, 143  # the shell's codes for a process ended by those signals
+EXIT_OUTPUT_FAILED = 1  # the run completed but an output it was asked for could not be written
 
 
 class Terminated(KeyboardInterrupt):

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hvs_sim.errors import ConfigError
+from hvs_sim.errors import ConfigError, OutputError
 from hvs_sim.loop import LoopConfig, RunStats, ServoLoop, StepRecord
 from hvs_sim.outputs import settle, temporary_beside, write_atomic
 from hvs_sim.scene.scenarios import Scenario
@@ -43,14 +43,19 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
         if rrd:
             Path(rrd).parent.mkdir(parents=True, exist_ok=True)
             rrd_tmp = temporary_beside(rrd)  # renamed into place once the recording is closed
-        rec = recording("hvs_sim", rrd=rrd_tmp, spawn=spawn)
+        try:
+            rec = recording("hvs_sim", rrd=rrd_tmp, spawn=spawn, shown=rrd)
+        except OutputError:  # a full disk before the first step: nothing of this run is left
+            if rrd_tmp is not None:
+                settle(rrd_tmp, rrd, keep=False)
+            raise
         setup = {"scenario": scenario.name, "mount": scenario.mount, "seed": scenario.seed, "tracker": tracker,
                  "camera": scenario.camera.sensor.name, "target": scenario.target_label, "wall": scenario.wall,
                  "people": scenario.people, "start_offset": list(scenario.start_offset), "loop": asdict(config)}
         logger = RerunLogger(rec, loop.renderer.K, scenario.camera.width, scenario.camera.height,
                              loop.scene.target_corners_world(), config=setup, wall=loop.scene.wall_box(),
                              arm_meshes=loop.scene.arm_meshes(), background=True,
-                             plot_flush_every=plot_flush_steps(live=spawn))
+                             plot_flush_every=plot_flush_steps(live=spawn), rrd=rrd)
     stats = RunStats(config)
     picks = FramePicks(config.steps) if figures else None
     records: list[StepRecord] = []
@@ -96,7 +101,7 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
                 logger.log_summary(_summary(scenario, tracker, stats, logger, interrupted))
             logger.close()
             if rrd_tmp is not None and rrd_tmp.exists():  # a complete recording of the steps so far
-                settle(rrd_tmp, rrd, keep)
+                settle(rrd_tmp, rrd, keep and logger.error is None)  # an unfinished recording is removed
         if json_path and keep:
             write_atomic(json_path, json.dumps(_summary(scenario, tracker, stats, logger, interrupted), indent=2))
     summary = _summary(scenario, tracker, stats, logger, False)
@@ -150,6 +155,8 @@ def _summary(scenario, tracker, stats: RunStats, logger, interrupted: bool) -> d
         out.update(stats.summary())
         out["steps_run"] = stats.n
     out["logging_failed"] = bool(logger and logger.failed)
+    if logger is not None and logger.error is not None:
+        out["recording_error"] = logger.error + "; the recording was removed"
     return out
 
 

@@ -47,7 +47,7 @@ import numpy as np
 from tqdm import tqdm
 
 from hvs_sim.cliargs import DEFAULT_TRACKER, add_settings_option, parse_settings
-from hvs_sim.errors import InputError
+from hvs_sim.errors import InputError, OutputError
 from hvs_sim.outputs import check_apart, check_output_file, fresh_out_dir, settle, temporary_beside
 from hvs_sim.plugins import check_any_tracker, make_any_tracker
 from hvs_sim.tracking import TRACKER_NAMES, Track
@@ -195,13 +195,14 @@ class RerunTrackLog:
     """Per-frame rerun logging: image, outline, centre and plots. Like viz/rerun_log.py it never raises
     into the tracking loop: the first failure is logged and logging stops."""
 
-    def __init__(self, rrd: Path, fps: float):
+    def __init__(self, rrd: Path, fps: float, final: Path):
         import rerun as rr
 
         from hvs_sim.viz.rr_stream import ScalarColumns, jpeg, new_recording, plot_flush_steps
 
         self.rr, self.jpeg, self.fps, self.failed = rr, jpeg, fps, False
-        self.rec = new_recording("hvs_sim_track", rrd=str(rrd), blueprint=self._blueprint())
+        self.final, self.error = final, None
+        self.rec = new_recording("hvs_sim_track", rrd=str(rrd), blueprint=self._blueprint(), shown=final)
         self.plots = ScalarColumns(self.rec, "frame", "video_time", plot_flush_steps(live=False))
         self._guard(self._static)
 
@@ -250,9 +251,14 @@ class RerunTrackLog:
         plot.add("plots/mode", MODE_PLOT_CODE.get(track.mode, MODE_PLOT_CODE["lost"]))
 
     def close(self) -> None:
+        """Send the buffered plots and finish the file; `error` says why it is incomplete (then it is not kept)."""
+        from hvs_sim.viz.rr_stream import finish_recording
+
         self._guard(self.plots.flush)
-        self.rec.flush()
-        self.rec.disconnect()
+        try:
+            finish_recording(self.rec, self.final)
+        except OutputError as exc:
+            self.error = exc
 
 
 class TrackOutputs:
@@ -276,7 +282,7 @@ class TrackOutputs:
 
         self.video = Mp4Writer(self.video_path, fps, size)  # H.264 (mp4v when PyAV's encoder is missing)
         self._open.callback(self.video.close)
-        self.rerun = RerunTrackLog(self.rrd, fps) if self.rrd else None
+        self.rerun = RerunTrackLog(self.rrd, fps, self.final[-1]) if self.rrd else None
         if self.rerun:
             self._open.callback(self.rerun.close)
         self.csv = csv.writer(self._open.enter_context(self.csv_path.open("w", newline="")))
@@ -294,8 +300,12 @@ class TrackOutputs:
     def close(self) -> None:
         """Close the files and rename each into place (the frames written so far, also after Ctrl-C)."""
         self._open.close()
+        error = self.rerun.error if self.rerun else None  # an incomplete recording is removed, the rest kept
         for tmp, final in zip(self._temporaries(), self.final, strict=True):
-            settle(tmp, final, keep=True)
+            settle(tmp, final, keep=error is None or tmp != self.rrd)
+        if error is not None:
+            raise OutputError(f"{error}; the recording was removed, {self.final[0]} and {self.final[1]} are "
+                              "complete") from error
 
     def discard(self) -> None:
         """Close and remove what this run wrote: a run that failed part-way leaves no result behind, and nothing that

@@ -43,7 +43,10 @@ def test_the_cli_refuses_a_huge_target_and_a_huge_frame_with_a_message(tmp_path,
     assert "pixels accepted" in capsys.readouterr().err
 
 
-def test_alpha_is_composited_over_white_and_16_bit_data_is_scaled_by_its_range(tmp_path):
+def test_alpha_is_composited_over_white_and_16_bit_data_is_scaled_by_its_range(tmp_path, caplog, monkeypatch):
+    from hvs_sim.scene import images
+
+    monkeypatch.setattr(images, "_NOTED", set())
     rgba = np.zeros((40, 40, 4), np.uint8)
     rgba[..., 2] = 200  # red (BGR order on disk)
     rgba[:, :20, 3] = 255  # left half opaque, right half transparent
@@ -55,6 +58,10 @@ def test_alpha_is_composited_over_white_and_16_bit_data_is_scaled_by_its_range(t
     cv2.imwrite(str(tmp_path / "b.png"), twelve)
     img = read_rgb(tmp_path / "b.png")
     assert img[0, 39].tolist() == [255] * 3 and abs(int(img[0, 0, 0]) - 128) <= 1  # 12-bit data, not near black
+    assert "16-bit image holding 12-bit data (largest value 4095): scaled by 255/4095" in caplog.text
+    caplog.clear()
+    read_rgb(tmp_path / "b.png")
+    assert "16-bit" not in caplog.text  # said once, not once a frame
     full = np.full((40, 40, 3), 65535, np.uint16)
     cv2.imwrite(str(tmp_path / "c.png"), full)
     assert read_rgb(tmp_path / "c.png")[0, 0].tolist() == [255] * 3

@@ -116,6 +116,26 @@ def test_a_logging_failure_in_the_writer_thread_is_reported_not_raised(tmp_path,
     assert json.loads((tmp_path / "run.json").read_text())["logging_failed"] is True
 
 
+def test_a_recording_that_cannot_be_finished_is_removed_and_the_run_json_says_so(tmp_path, monkeypatch):
+    """rerun's last flush fails (a full disk killed its file writer): the run's JSON and steps CSV are written and
+    name the problem, the incomplete .rrd is removed, and the dead stream is never flushed again without a bound."""
+    import rerun as rr
+
+    def dead_writer(self, **kw):
+        assert 0 < kw["timeout_sec"] < 60
+        raise RuntimeError("File-writer thread shut down prematurely")
+
+    monkeypatch.setattr(rr.RecordingStream, "flush", dead_writer)
+    monkeypatch.setattr(rr.RecordingStream, "disconnect", lambda self: pytest.fail("a dead sink was flushed again"))
+    monkeypatch.setattr(rr, "unregister_shutdown", lambda: None)
+    rrd = tmp_path / "run.rrd"
+    run_episode(make_scenario("walk_by", mount="arm", camera=SMALL), "ground_truth", LoopConfig(steps=4),
+                rrd=str(rrd), progress=False, json_path=str(tmp_path / "run.json"))
+    saved = json.loads((tmp_path / "run.json").read_text())
+    assert f"could not finish the rerun recording {rrd}" in saved["recording_error"] and saved["logging_failed"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.json", "run_steps.csv"]
+
+
 def test_env_checker_passes_without_warnings():
     import warnings
 

@@ -289,3 +289,56 @@ def test_a_second_track_into_a_used_out_needs_overwrite_and_a_failure_keeps_the_
         video.track_footage(clip["folder"], ROI, out=out, overwrite=True, progress=False)
     assert (out / "track.csv").read_bytes() == first  # the earlier complete result, untouched
     assert sorted(p.name for p in out.iterdir()) == ["annotated.mp4", "track.csv"]  # no temporary left
+
+
+def test_a_recording_that_cannot_be_finished_is_removed_and_the_rest_kept(clip, tmp_path, capsys, monkeypatch):
+    """rerun's flush fails (its file writer died on a full disk): a clear error, no partial .rrd, CSV and video
+    complete, and the stream is never flushed again (that would wait without a bound)."""
+    import rerun as rr
+
+    flushes = []
+
+    def dead_writer(self, **kw):
+        flushes.append(kw)
+        raise RuntimeError("File-writer thread shut down prematurely")
+
+    monkeypatch.setattr(rr.RecordingStream, "flush", dead_writer)
+    monkeypatch.setattr(rr.RecordingStream, "disconnect", lambda self: pytest.fail("a dead sink was flushed again"))
+    monkeypatch.setattr(rr, "unregister_shutdown", lambda: None)  # the test process keeps rerun's exit handler
+    out, rrd = tmp_path / "out", tmp_path / "rec.rrd"
+    assert main(["track", str(clip["folder"]), "--roi", roi_arg(), "--tracker", "ecc", "--out", str(out),
+                 "--rrd", str(rrd)]) == 2
+    err = capsys.readouterr().err
+    assert f"could not finish the rerun recording {rrd}" in err and "complete" in err
+    assert flushes and all(0 < kw["timeout_sec"] < 60 for kw in flushes)  # bounded
+    assert not rrd.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    check_outputs(out)
+
+
+def _small_tmpfs(where: Path, size: str) -> bool:
+    import subprocess
+
+    where.mkdir()
+    return subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(where)],
+                          capture_output=True, check=False).returncode == 0
+
+
+def test_track_with_its_recording_on_a_full_disk_ends_with_a_clear_error(clip, tmp_path):
+    """The real thing: a 200 kB file system for the .rrd (root only). It used to hang in rerun's flush, deaf to
+    SIGTERM."""
+    import subprocess
+    import sys
+
+    full = tmp_path / "full"
+    if not _small_tmpfs(full, "200k"):
+        pytest.skip("cannot mount a tmpfs here (needs root)")
+    try:
+        cmd = [sys.executable, "-m", "hvs_sim.cli", "track", str(clip["folder"]), "--roi", roi_arg(), "--tracker",
+               "ecc", "--out", str(tmp_path / "out"), "--rrd", str(full / "x.rrd")]
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=150, check=False)
+        assert done.returncode == 2, done.stderr[-2000:]
+        assert "could not finish the rerun recording" in done.stderr
+        assert list(full.iterdir()) == []  # nothing partial left on the full disk
+        check_outputs(tmp_path / "out")
+    finally:
+        subprocess.run(["umount", str(full)], check=False)

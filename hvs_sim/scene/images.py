@@ -23,6 +23,19 @@ MAX_IMAGE_PIXELS = 64_000_000
 ALPHA_BACKGROUND = 255  # transparent pixels are composited over white: the paper a picture is printed on
 
 
+_BITS = {255: 8, 4095: 12, 65535: 16}
+_NOTED: set = set()  # (what, range) pairs already reported: a folder of 16-bit frames gets one note, not one a frame
+
+
+def _note_once(what: str, message: str, full: int) -> None:
+    """Say once per kind of input and data range how a 16-bit image was reduced to 8 bit (a user must know)."""
+    import logging
+
+    if (what, full) not in _NOTED:
+        _NOTED.add((what, full))
+        logging.getLogger(__name__).warning("note: %s", message)
+
+
 def read_rgb(path: str | Path, what: str = "image") -> np.ndarray:
     """H×W×3 uint8 RGB of an image file, read safely: a regular file only (not a FIFO or device), its size checked
     from the header before decoding (MAX_IMAGE_PIXELS), EXIF orientation applied, 16-bit images scaled by the
@@ -62,6 +75,9 @@ def read_rgb(path: str | Path, what: str = "image") -> np.ndarray:
         top = int(img.max())
         full = 255 if top <= 255 else 4095 if top <= 4095 else 65535  # the range the data was written in
         img = np.clip(np.rint(img.astype(np.float64) * (255.0 / full)), 0, 255).astype(np.uint8)
+        _note_once(what, f"{what} {str(p)!r} is a 16-bit image holding {_BITS[full]}-bit data (largest value {top}): "
+                         f"scaled by 255/{full} to 8 bit (further {what}s of the same range are scaled alike)",
+                   full)
     elif img.dtype != np.uint8:
         raise InputError(f"{what} {str(p)!r} holds {img.dtype} pixels; accepted: 8- or 16-bit images")
     if img.shape[0] * img.shape[1] > MAX_IMAGE_PIXELS:

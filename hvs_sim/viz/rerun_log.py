@@ -77,9 +77,10 @@ def blueprint() -> rrb.Blueprint:
     )
 
 
-def recording(application_id: str = "hvs_sim", rrd: str | None = None, spawn: bool = False) -> rr.RecordingStream:
+def recording(application_id: str = "hvs_sim", rrd: str | None = None, spawn: bool = False,
+              shown=None) -> rr.RecordingStream:
     """The loop's recording with its blueprint (rr_stream.new_recording: a file-only one is batched in large chunks)."""
-    return new_recording(application_id, rrd=rrd, spawn=spawn, blueprint=blueprint())
+    return new_recording(application_id, rrd=rrd, spawn=spawn, blueprint=blueprint(), shown=shown)
 
 
 class RerunLogger:
@@ -92,12 +93,14 @@ class RerunLogger:
 
     def __init__(self, rec: rr.RecordingStream, K: np.ndarray, width: int, height: int, target_world: np.ndarray | None = None,
                  config: dict | None = None, wall: tuple | None = None, arm_meshes: list | None = None,
-                 background: bool = False, plot_flush_every: int = PLOT_FLUSH_STEPS):
+                 background: bool = False, plot_flush_every: int = PLOT_FLUSH_STEPS, rrd=None):
         """plot_flush_every: steps between sends of the plotted values (rr_stream.plot_flush_steps);
         config: the run's set-up, logged as text at run/config; wall: (centre, R, half sizes) of the board;
-        arm_meshes: (vertices, triangles, RGBA) per arm mesh (Scene.arm_meshes), posed at the steps where they moved."""
-        self.rec = rec
+        arm_meshes: (vertices, triangles, RGBA) per arm mesh (Scene.arm_meshes), posed at the steps where they moved;
+        rrd: the file the recording goes to, named when it cannot be finished."""
+        self.rec, self.rrd = rec, rrd
         self.failed = False
+        self.error: str | None = None  # why the recording could not be finished (then it is removed)
         self.background = background
         self._queue: queue.Queue | None = None
         self._writer: threading.Thread | None = None  # started by the first log_step, stopped by drain()
@@ -149,10 +152,16 @@ class RerunLogger:
     def close(self) -> None:
         """Log what the writer has queued, send the buffered plots and finish the recording (also after an
         interruption)."""
+        from hvs_sim.errors import OutputError
+        from hvs_sim.viz.rr_stream import finish_recording
+
         self.drain()
         self._guard(self.plots.flush)
-        self.rec.flush()
-        self.rec.disconnect()
+        try:
+            finish_recording(self.rec, self.rrd)
+        except OutputError as exc:  # the run goes on to write its JSON, which says so
+            self.failed, self.error = True, str(exc)
+            log.warning("%s", exc)
 
     def _guard(self, fn, *args) -> None:
         if self.failed:

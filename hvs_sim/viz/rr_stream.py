@@ -28,7 +28,7 @@ import numpy as np
 import rerun as rr
 
 from hvs_sim.camera_model import encode_jpeg
-from hvs_sim.errors import StateError
+from hvs_sim.errors import OutputError, StateError
 from hvs_sim.validate import check_number
 
 PLOT_FLUSH_STEPS = 15  # plotted values are sent every this many steps (0.5 s at 30 Hz) to a live viewer ...
@@ -36,6 +36,7 @@ FILE_PLOT_FLUSH_STEPS = 300  # ... and every this many (10 s at 30 Hz) to a file
 FILE_FLUSH_TICK_S = 5.0  # a file-only recording's batcher sends what it holds every this many seconds ...
 FILE_FLUSH_BYTES = 16 * 2**20  # ... or when it holds this many bytes (~9 s of 640×480 JPEG frames at 30 Hz)
 JPEG_QUALITY = 85  # recorded frames
+FINISH_TIMEOUT_S = 20.0  # the longest a recording's last flush may take; a full disk otherwise waits forever
 
 
 def jpeg(frame: np.ndarray, quality: int = JPEG_QUALITY) -> rr.EncodedImage:
@@ -44,19 +45,48 @@ def jpeg(frame: np.ndarray, quality: int = JPEG_QUALITY) -> rr.EncodedImage:
 
 
 def new_recording(application_id: str, rrd: str | None = None, spawn: bool = False,
-                  blueprint=None) -> rr.RecordingStream:
+                  blueprint=None, shown=None) -> rr.RecordingStream:
     """A RecordingStream to a live viewer (`spawn`) and/or a file; without a viewer, batched in large chunks
-    (module docstring). With both, one stream feeds both sinks: `spawn` and `save` each replace the sinks."""
+    (module docstring). With both, one stream feeds both sinks: `spawn` and `save` each replace the sinks.
+    shown: the name an error gives the file (the final name of a temporary `rrd`)."""
     own = any(k.startswith("RERUN_FLUSH_") for k in os.environ)  # the user's batcher setting wins
     batcher = None if spawn or own else rr.ChunkBatcherConfig(flush_tick=FILE_FLUSH_TICK_S,
                                                                flush_num_bytes=FILE_FLUSH_BYTES)
     rec = rr.RecordingStream(application_id, batcher_config=batcher)
-    if spawn:
-        rec.spawn(connect=False)  # starts the viewer; the sinks follow
-        rec.set_sinks(rr.GrpcSink(), *([rr.FileSink(rrd)] if rrd else []), default_blueprint=blueprint)
-    elif rrd:
-        rec.save(rrd, default_blueprint=blueprint)
+    try:
+        if spawn:
+            rec.spawn(connect=False)  # starts the viewer; the sinks follow
+            rec.set_sinks(rr.GrpcSink(), *([rr.FileSink(rrd)] if rrd else []), default_blueprint=blueprint)
+        elif rrd:
+            rec.save(rrd, default_blueprint=blueprint)
+    except RuntimeError as exc:  # the file's header could not be written
+        _abandon(rec)
+        raise OutputError(f"could not start the rerun recording {shown or rrd} ({exc}: a full disk, or a folder that is "
+                          "not writable?)") from exc
     return rec
+
+
+def finish_recording(rec: rr.RecordingStream, path=None) -> None:
+    """Flush what the batcher holds and close the sinks, waiting at most FINISH_TIMEOUT_S: rerun's own flush waits
+    without a bound when its file writer has died (a full disk). OutputError when the recording is incomplete."""
+    try:
+        rec.flush(timeout_sec=FINISH_TIMEOUT_S)
+    except Exception as exc:  # rerun raises RuntimeError for a dead writer and for the time-out
+        _abandon(rec)
+        named = "" if path is None else f" {path}"
+        raise OutputError(f"could not finish the rerun recording{named} ({exc}: a full disk, or a folder that is "
+                          "gone?)") from exc
+    rec.disconnect()
+
+
+def _abandon(rec: rr.RecordingStream) -> None:
+    """Keep a stream whose file sink died from ever being flushed again: disconnect(), the stream's finaliser (also
+    at interpreter exit) and rerun's exit handler each flush it without a bound (rerun-sdk 0.41). Its reference count
+    is raised once so that it is never finalised; what it still held is lost (the file is incomplete anyway)."""
+    import ctypes
+
+    ctypes.pythonapi.Py_IncRef(ctypes.py_object(rec))
+    rr.unregister_shutdown()
 
 
 def plot_flush_steps(live: bool) -> int:
