@@ -231,7 +231,7 @@ def _check_bench_options(args) -> None:
     """Refuse options that do not apply to the chosen benchmark, rather than ignoring them."""
     if args.what == "servo":
         for flag, value in (("--imagery natural", args.imagery == "natural"), ("--sources", args.sources),
-                            ("--mounts", args.mounts)):
+                            ("--mounts", args.mounts), ("--motion", args.motion)):
             if value:
                 raise ConfigError(f"{flag} applies to `bench track` only (the servo benchmark's camera is on the arm)")
         return
@@ -246,8 +246,8 @@ def _check_bench_options(args) -> None:
             if value:
                 raise ConfigError(f"{flag} does not apply to --imagery natural (planar photos, a drawn person): "
                                   "leave it out, or use --imagery sim")
-    elif args.sources:
-        raise ConfigError("--sources applies to --imagery natural only")
+    elif args.sources or args.motion:
+        raise ConfigError(f"{'--sources' if args.sources else '--motion'} applies to --imagery natural only")
 
 
 def cmd_bench_natural(args) -> int:
@@ -263,13 +263,15 @@ def cmd_bench_natural(args) -> int:
 
     if args.smoke:  # small defaults; what the user names is honoured
         cfg = smoke_config(tuple(args.methods or METHODS), camera=args.camera, workers=args.workers)
-        cfg = dataclasses.replace(cfg, **_given(args, ("sources", "sources"), ("scenarios", "kinds"), ("seeds", "seeds")))
+        cfg = dataclasses.replace(cfg, **_given(args, ("sources", "sources"), ("scenarios", "kinds"), ("seeds", "seeds")),
+                                  motion=args.motion or cfg.motion)
         print(f"SMOKE RUN ({', '.join(cfg.sources)}; {', '.join(cfg.kinds)}; {cfg.frames} frames): checks the pipeline, "
               "NOT a result")
     else:
         cfg = NaturalBenchConfig(methods=tuple(args.methods or NaturalBenchConfig.methods),
                                  sources=tuple(args.sources or NATURAL_SOURCES), kinds=tuple(args.scenarios or NATURAL_KINDS),
-                                 seeds=tuple(args.seeds or DEFAULT_SEEDS), camera=args.camera, workers=args.workers)
+                                 seeds=tuple(args.seeds or DEFAULT_SEEDS), camera=args.camera, workers=args.workers,
+                                 motion=args.motion or "hand")
     summary = run_natural_bench(cfg, Path(args.out))
     for m, a in summary["overall"].items():
         v = summary["visible_lt_40"][m]
@@ -663,6 +665,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "partial (default all)")
     p.add_argument("--sources", nargs="+", default=None, metavar="NAME",
                    help="--imagery natural only: pictures (default all of hvs_sim.bench.natural.NATURAL_SOURCES)")
+    p.add_argument("--motion", default=None, choices=("hand", "tilt"),
+                   help="--imagery natural only: how the phone moves: hand (default: drift, tremor, roll, a little "
+                        "perspective) or tilt (also turned 10–13° out of the picture's plane and ±18 %% zoom)")
     p.add_argument("--mounts", nargs="+", default=None, metavar="MOUNT",
                    help="track only, sim imagery: handheld and/or arm (default both)")
     p.add_argument("--seeds", nargs="+", type=int, default=None,

@@ -1,6 +1,6 @@
 """Run a tracker on your own footage: a video file or a folder of images.
 
-  hvs-sim track PATH --roi x,y,w,h [--tracker hybrid] [--out DIR] [--rrd FILE]
+  hvs-sim track PATH --roi x,y,w,h [--tracker hybrid] [--target auto] [--out DIR] [--rrd FILE]
 
 PATH is a video file OpenCV can read, or a folder of images (.png .jpg .jpeg .bmp .tif .tiff,
 sorted by file name; other files are ignored; every image must have the size of the first).
@@ -20,6 +20,12 @@ Outputs in DIR (default out/track):
                  align green, predict amber, lost red), at the source's fps (30 for a folder).
   FILE (--rrd)   a rerun recording: the image, the tracked outline and centre, and per-frame plots of
                  occlusion, score, ms and mode. Open it with `rerun FILE`.
+
+What the target does (--target, the hybrid trackers): `static` when it is fixed in the scene (the
+surroundings' motion is its motion, and a far jump of the match must be verified), `moving` when it
+moves on its own (a confident match is never vetoed, gaps are extrapolated from its own motion), or
+`auto` (the default): moving for the first aligned frames, then whichever the target's offset from its
+surroundings' motion says; the summary says which was chosen. A scene cut ends in `lost` at the cut.
 
 Bad input (missing path, unreadable video or image, a folder without images, images of different
 sizes, a malformed or out-of-frame ROI, an unknown tracker, an output folder that cannot be written)
@@ -47,7 +53,7 @@ import numpy as np
 from tqdm import tqdm
 
 from hvs_sim.cliargs import DEFAULT_TRACKER, add_settings_option, parse_settings
-from hvs_sim.errors import InputError, OutputError
+from hvs_sim.errors import ConfigError, InputError, OutputError
 from hvs_sim.outputs import check_apart, check_output_file, fresh_out_dir, settle, temporary_beside
 from hvs_sim.plugins import check_any_tracker, make_any_tracker
 from hvs_sim.tracking import TRACKER_NAMES, Track
@@ -60,6 +66,8 @@ FOLDER_FPS = 30.0  # frame rate of the annotated video when the source is a fold
 CSV_NAME, VIDEO_NAME = "track.csv", "annotated.mp4"
 CSV_COLUMNS = ("frame", "cx", "cy", "tx", "ty", "theta", "scale", "mode", "occlusion", "score", "ms")
 INIT_MODE = "init"
+# footage often shows a target that moves on its own, where the servo loop's static prior would veto it (`--target`)
+TRACK_TARGET_DEFAULT = "auto"
 EXIT_INTERRUPTED = 130  # the shell's convention for a process stopped by SIGINT
 MODE_COLOURS = {INIT_MODE: (255, 255, 255), "align": (0, 220, 0), "predict": (255, 170, 0), "lost": (255, 0, 0)}  # RGB
 SHIFT_BITS = 4  # sub-pixel bits for cv2 drawing, so the outline sits where the tracker put it
@@ -334,6 +342,7 @@ class TrackResult:
     update_ms: list[float] = field(default_factory=list)  # updates only: init builds the template
     interrupted: bool = False
     expected: int | None = None  # frames the source says it holds (a video's header), when it says
+    notes: list[str] = field(default_factory=list)  # what the tracker said of this run (Tracker.notes)
 
     @property
     def frames(self) -> int:
@@ -350,18 +359,42 @@ class TrackResult:
         state = "interrupted after" if self.interrupted else "tracked"
         lines = [f"{state} {self.frames} frames with {self.tracker} ({modes}); median update {ms}",
                  "outputs: " + ", ".join(map(str, self.outputs))]
+        lines += [f"note: {n}" for n in self.notes]
         if self.expected is not None and self.frames < self.expected and not self.interrupted:
             lines.append(f"note: the video's header says {self.expected} frames; only {self.frames} could be decoded "
                          "(a truncated or damaged file)")
         return "\n".join(lines)
 
 
+def target_settings(tracker: str, target: str | None, settings: dict) -> dict:
+    """The tracker's settings with the target's motion (`--target`): the hybrid trackers take it (default `auto`:
+    footage often shows a target that moves on its own); any other tracker has no motion prior to set."""
+    from hvs_sim.tracking.hybrid import TARGET_MOTIONS
+    from hvs_sim.tracking.registry import TRACKERS
+
+    if target is not None and target not in TARGET_MOTIONS:
+        raise ConfigError(f"--target must be one of {', '.join(TARGET_MOTIONS)}, got {target!r}")
+    spec = TRACKERS.get(tracker)
+    if spec is None or spec.base != "hybrid":
+        if target is not None:
+            raise ConfigError(f"--target sets the hybrid trackers' motion prior; {tracker} has none (it follows any "
+                              "motion); leave --target out")
+        return settings
+    if target is not None and "target_motion" in settings and settings["target_motion"] != target:
+        raise ConfigError(f"--target {target} and --set target_motion={settings['target_motion']} disagree; give one")
+    chosen = target or settings.get("target_motion") or spec.config.get("target_motion") or TRACK_TARGET_DEFAULT
+    return {**settings, "target_motion": chosen}
+
+
 def track_footage(path, roi, tracker: str = DEFAULT_TRACKER, out="out/track", rrd=None,
-                  progress: bool = True, settings: dict | None = None, overwrite: bool = False) -> TrackResult:
+                  progress: bool = True, settings: dict | None = None, overwrite: bool = False,
+                  target: str | None = None) -> TrackResult:
     """Check every input, then stream the frames through the tracker into the outputs.
     settings: the tracker's config fields (make_tracker keywords), e.g. other weights. An --out holding anything
-    is refused unless `overwrite` (then its earlier track.csv and annotated.mp4 are replaced when this run ends)."""
+    is refused unless `overwrite` (then its earlier track.csv and annotated.mp4 are replaced when this run ends).
+    target: static | moving | auto, the hybrid's motion prior (target_settings; None: auto for the hybrids)."""
     tracker = check_any_tracker(tracker)
+    settings = target_settings(tracker, target, dict(settings or {}))
     roi = parse_roi(roi) if isinstance(roi, str) else roi
     check_apart([path], {"--out's track.csv": Path(out) / CSV_NAME, "--out's annotated.mp4": Path(out) / VIDEO_NAME,
                          "--rrd": None if rrd is None else Path(rrd)})
@@ -370,7 +403,7 @@ def track_footage(path, roi, tracker: str = DEFAULT_TRACKER, out="out/track", rr
         roi = check_roi(roi, source.first.shape[:2])
         out = fresh_out_dir(out, overwrite, (CSV_NAME, VIDEO_NAME), clear=False)
         rrd = prepare_rrd(rrd)
-        method = make_any_tracker(tracker, **(settings or {}))
+        method = make_any_tracker(tracker, **settings)
         outputs = TrackOutputs(out, source.size, source.fps, rrd)
         result = TrackResult(tracker, outputs.paths, expected=source.count)
         bar = tqdm(total=source.count, unit="frame", desc=f"track/{tracker}", disable=not progress)
@@ -378,6 +411,7 @@ def track_footage(path, roi, tracker: str = DEFAULT_TRACKER, out="out/track", rr
             result.interrupted = _run(method, roi, source, outputs, result, bar)
         finally:
             bar.close()
+        result.notes = list(getattr(method, "notes", []) or [])
         return result
     finally:
         source.close()
@@ -442,6 +476,10 @@ def add_track_parser(sub) -> None:
     p.add_argument("--out", default="out/track", metavar="DIR",
                    help="folder for track.csv and annotated.mp4, created when missing (default out/track)")
     p.add_argument("--rrd", default=None, metavar="FILE", help="also save a rerun recording here")
+    p.add_argument("--target", choices=("static", "moving", "auto"), default=None,
+                   help="what the target does, for the hybrid trackers: static (fixed in the scene: the surroundings' "
+                        "motion is its motion), moving (it moves on its own), or auto (default: chosen from the first "
+                        "aligned frames, and said in the summary)")
     p.add_argument("--overwrite", action="store_true",
                    help="track into a non-empty --out (its track.csv and annotated.mp4 are replaced when the run ends)")
     add_settings_option(p)
@@ -451,7 +489,7 @@ def add_track_parser(sub) -> None:
 def cmd_track(args) -> int:
     try:
         result = track_footage(args.path, args.roi, args.tracker, args.out, args.rrd,
-                               settings=parse_settings(args.set), overwrite=args.overwrite)
+                               settings=parse_settings(args.set), overwrite=args.overwrite, target=args.target)
     except KeyboardInterrupt:  # before the first frame was tracked: nothing was written
         print("hvs-sim: interrupted (Ctrl-C) before tracking started; nothing written", file=sys.stderr)
         return EXIT_INTERRUPTED

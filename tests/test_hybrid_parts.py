@@ -76,7 +76,7 @@ def test_flat_template_is_refused_and_the_tracker_stays_uninitialised():
     noisy = np.clip(img + rng.normal(0, 2.0, img.shape), 0, 255).astype(np.uint8)  # sensor noise on it
     for name in ("deep_lk", "hybrid"):
         tr = make_tracker(name)
-        with pytest.raises(InputError, match="too little texture"):
+        with pytest.raises(InputError, match="a flat patch"):
             tr.init(noisy, ROI)
         with pytest.raises(StateError):
             tr.update(noisy)
@@ -86,6 +86,27 @@ def test_flat_template_is_refused_and_the_tracker_stays_uninitialised():
         assert 0.0 <= tk.confidence < 0.5 and np.isfinite(tk.pose).all()
     tr = make_tracker("hybrid")
     assert tr.init(_frame(), ROI).confidence == 1.0  # textured: full confidence
+
+
+def test_a_single_edge_is_refused_and_a_weak_lattice_accepted_with_a_note():
+    """Trackability as advice: refused only where no tracker can localise; a faint but two-dimensional target (thin
+    low-contrast struts against the sky) is tracked, with a note and a lowered confidence."""
+    rng = np.random.default_rng(1)
+    sky = np.full((360, 480, 3), (135, 180, 235), np.float64)
+    edge = sky.copy()
+    edge[:, 240:] = (90, 90, 100)  # one straight vertical edge through the ROI
+    lattice = sky.copy()
+    yy, xx = np.mgrid[0:360, 0:480]
+    struts = (np.abs((xx + yy) % 30 - 15) < 1) | (np.abs((xx - yy) % 30 - 15) < 1)
+    lattice[struts] -= 10  # four grey levels of contrast
+    roi = (180, 120, 120, 100)
+    noisy = [np.clip(img + rng.normal(0, 2.0, img.shape), 0, 255).astype(np.uint8) for img in (edge, lattice)]
+    with pytest.raises(InputError, match="one direction only"):
+        make_tracker("hybrid").init(noisy[0], roi)
+    tr = make_tracker("hybrid")
+    assert 0 < tr.init(noisy[1], roi).confidence < 1
+    assert len(tr.notes) == 1 and tr.notes[0].startswith("weak template")
+    assert make_tracker("hybrid").init(_frame(), ROI).confidence == 1.0
 
 
 def test_exposure_change_alone_is_not_occlusion_but_a_cover_is():

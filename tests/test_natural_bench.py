@@ -36,11 +36,11 @@ def _grey(frame: np.ndarray) -> np.ndarray:
     return cv2.cvtColor(frame, cv2.COLOR_RGB2GRAY).astype(np.float32)
 
 
-@pytest.mark.parametrize("source", ["photo_china", "gravel"])
-def test_ground_truth_is_exact_on_clean_frames(source):
+@pytest.mark.parametrize(("source", "motion"), [("photo_china", "hand"), ("gravel", "hand"), ("brick", "tilt")])
+def test_ground_truth_is_exact_on_clean_frames(source, motion):
     """Frame t warped back by the true motion lines up with frame 0 over the ROI to < 0.1 px (ECC, translation),
     and gt_track is the ROI centre carried by that motion."""
-    seq = make_natural_sequence(source, "clear", 11, n_frames=SHORT, camera="ideal")
+    seq = make_natural_sequence(source, "clear", 11, n_frames=SHORT, camera="ideal", motion=motion)
     x, y, w, h = seq.roi
     mask = np.zeros(seq.frames.shape[1:3], np.uint8)
     mask[y:y + h, x:x + w] = 1
@@ -109,6 +109,26 @@ def test_bad_arguments_raise_clear_errors(kwargs, needle):
     kwargs = {"seed": 0, **kwargs}
     with pytest.raises(ConfigError, match=needle.replace("(", r"\(").replace(")", r"\)")):
         make_natural_sequence(**kwargs)
+
+
+def test_tilt_turns_the_phone_out_of_the_picture_plane_and_zooms():
+    """`motion="tilt"`: the same seeded path shape with ×3.5 the perspective and ×5 the zoom drift."""
+    from hvs_sim.bench.natural import _path
+
+    times = np.arange(150) / 30.0
+    hand, tilt = (_path("brick", 3, (1200, 1800), (640, 480), times, m) for m in ("hand", "tilt"))
+
+    def extremes(path):
+        Hs = [path.homography(float(t)) for t in times]
+        keystone = max(np.hypot(*H[2, :2]) / H[2, 2] for H in Hs)
+        scales = [np.sqrt(abs(np.linalg.det(H[:2, :2]))) for H in Hs]
+        return keystone, max(scales) / min(scales)
+
+    (k_hand, z_hand), (k_tilt, z_tilt) = extremes(hand), extremes(tilt)
+    assert k_tilt > 3 * k_hand and k_tilt * 580 > np.tan(np.radians(8))  # ≥ 8° out of plane somewhere
+    assert z_tilt - 1 > 3 * (z_hand - 1)
+    with pytest.raises(ConfigError, match="unknown natural motion"):
+        make_natural_sequence("brick", "clear", 0, motion="roll")
 
 
 def test_bench_config_rejects_unknown_names():

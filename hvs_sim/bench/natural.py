@@ -102,6 +102,10 @@ ROLL_TREMOR_DEG_HZ = 0.15
 SCALE_DRIFT = 0.006  # per drift component: ±3.6 % at most (the hand moves towards and away)
 PERSPECTIVE = 1e-4  # 1/px: at the image edge (320 px) a 3 % keystone
 PERSPECTIVE_DRIFT = 0.3  # of PERSPECTIVE, per drift component
+# how the hand moves (`motion`): "hand" as above; "tilt" a phone turned out of the picture's plane and brought
+# closer and further: ×3.5 the perspective (up to ~4e-4/px, 10–13° of tilt at the view's 580 px focal length) and
+# ×5 the scale drift (±18 % zoom over a sequence)
+MOTIONS = {"hand": (1.0, 1.0), "tilt": (3.5, 5.0)}  # name → (perspective gain, scale-drift gain)
 
 BLUR_STEP_PX = 1.5  # at most this image motion between two sub-frame warps (as camera_model.BLUR_STEP_PX)
 MIN_BLUR_SAMPLES = 3  # when anything moves visibly during the exposure, at least this many
@@ -222,6 +226,7 @@ class HandHeldPath:
     zoom: float
     roll0: float
     waves: dict = field(repr=False)
+    perspective: float = PERSPECTIVE  # 1/px per unit of the tilt waves (MOTIONS)
 
     def homography(self, t: float) -> np.ndarray:
         w = self.waves
@@ -229,8 +234,8 @@ class HandHeldPath:
         dy = _wave_sum(w["y"], t) + _wave_sum(w["ty"], t)
         th = self.roll0 + math.radians(_wave_sum(w["roll"], t) + _wave_sum(w["troll"], t))
         s = self.zoom * (1.0 + _wave_sum(w["scale"], t))
-        gx = PERSPECTIVE * (w["g0"][0] + _wave_sum(w["gx"], t))
-        gy = PERSPECTIVE * (w["g0"][1] + _wave_sum(w["gy"], t))
+        gx = self.perspective * (w["g0"][0] + _wave_sum(w["gx"], t))
+        gy = self.perspective * (w["g0"][1] + _wave_sum(w["gy"], t))
         c, sn = s * math.cos(th), s * math.sin(th)
         cx, cy = self.centre
         A = np.array([[c, -sn, dx - c * self.p0[0] + sn * self.p0[1]],
@@ -245,8 +250,11 @@ class HandHeldPath:
         return math.radians(_wave_sum(w["roll"], t) + _wave_sum(w["troll"], t))
 
 
-def _path(source: str, seed: int, picture_hw: tuple[int, int], view: tuple[int, int], times: np.ndarray) -> HandHeldPath:
-    """A seeded hand-held path whose view stays on the picture for the whole sequence (zooming in if needed)."""
+def _path(source: str, seed: int, picture_hw: tuple[int, int], view: tuple[int, int], times: np.ndarray,
+          motion: str = "hand") -> HandHeldPath:
+    """A seeded hand-held path whose view stays on the picture for the whole sequence (zooming in if needed); the
+    `motion`'s gains scale its tilt and zoom waves (one seed: one path shape, whatever the motion)."""
+    tilt_gain, zoom_gain = MOTIONS[motion]
     rng = _rng(source, seed, PATH_STREAM)
     ph, pw = picture_hw
     w, h = view
@@ -256,7 +264,7 @@ def _path(source: str, seed: int, picture_hw: tuple[int, int], view: tuple[int, 
         "x": _waves(rng, 3, DRIFT_HZ, DRIFT_PX), "y": _waves(rng, 3, DRIFT_HZ, DRIFT_PX),
         "tx": _waves(rng, 5, TREMOR_HZ, TREMOR_PX_HZ, True), "ty": _waves(rng, 5, TREMOR_HZ, TREMOR_PX_HZ, True),
         "roll": _waves(rng, 3, DRIFT_HZ, ROLL_DRIFT_DEG), "troll": _waves(rng, 5, TREMOR_HZ, ROLL_TREMOR_DEG_HZ, True),
-        "scale": _waves(rng, 3, DRIFT_HZ, SCALE_DRIFT),
+        "scale": _waves(rng, 3, DRIFT_HZ, SCALE_DRIFT * zoom_gain),
         "gx": _waves(rng, 3, DRIFT_HZ, PERSPECTIVE_DRIFT), "gy": _waves(rng, 3, DRIFT_HZ, PERSPECTIVE_DRIFT),
         "g0": tuple(rng.uniform(-0.5, 0.5, 2)),
     }
@@ -267,7 +275,7 @@ def _path(source: str, seed: int, picture_hw: tuple[int, int], view: tuple[int, 
     for _ in range(FIT_TRIES):
         margin = np.array([pw - w / zoom, ph - h / zoom]) / 2.0
         p0 = np.array([(pw - 1) / 2.0, (ph - 1) / 2.0]) + offset * np.maximum(margin, 0.0)
-        path = HandHeldPath(centre, (float(p0[0]), float(p0[1])), zoom, roll0, waves)
+        path = HandHeldPath(centre, (float(p0[0]), float(p0[1])), zoom, roll0, waves, PERSPECTIVE * tilt_gain)
         pts = np.concatenate([(np.linalg.inv(path.homography(float(t))) @ view_corners.T).T for t in times])
         pts = pts[:, :2] / pts[:, 2:]
         lo, hi = EDGE_GUARD_PX, np.array([pw - 1, ph - 1]) - EDGE_GUARD_PX
@@ -644,14 +652,16 @@ def _occlusion(body: Body, A: np.ndarray, outline: np.ndarray, view: tuple[int, 
 
 
 def make_natural_sequence(source: str, kind: str, seed: int, n_frames: int = 150, camera: str = REALISTIC_PRESET,
-                          size=(640, 480)) -> NaturalSequence:
+                          size=(640, 480), motion: str = "hand") -> NaturalSequence:
     """A seeded hand-held sequence of a planar picture, optionally with a person crossing, pausing or standing beside.
 
     source: one of NATURAL_SOURCES; kind: one of NATURAL_KINDS; camera: a `camera_model` preset (`ideal`
-    gives clean frames). Returns a `NaturalSequence` (frames, roi, gt_track, occlusion, name).
+    gives clean frames); motion: one of MOTIONS. Returns a `NaturalSequence` (frames, roi, gt_track, occlusion, name).
     """
     start = time.perf_counter()
     view = _check(source, kind, seed, n_frames, size)
+    if motion not in MOTIONS:
+        raise choice_error("natural motion", motion, tuple(MOTIONS))
     seed = int(seed)
     model = sensor_preset(camera)
     if model.exposure_ms > 1000.0 / FPS:
@@ -659,7 +669,7 @@ def make_natural_sequence(source: str, kind: str, seed: int, n_frames: int = 150
     w, h = view
     times = np.arange(n_frames) / FPS
     picture = _picture(source, seed, view)
-    path = _path(source, seed, picture.shape[:2], view, times)
+    path = _path(source, seed, picture.shape[:2], view, times, motion)
     K = intrinsics(w, h, DISTORTION_FOVY_DEG) if model.distortion else None
     maps = distortion_maps(K, model.distortion, w, h) if model.distortion else None
 
@@ -744,7 +754,8 @@ def make_natural_sequence(source: str, kind: str, seed: int, n_frames: int = 150
                                                          model.distortion, maps)
         linear = lens(linear)
         frames[k] = encode(linear) if state is None else state.capture(linear, k, t, 1.0 / FPS)
-    name = f"{source}/{kind}/s{seed}" + ("" if camera == REALISTIC_PRESET else f"/{camera}")
+    name = (f"{source}/{kind}/s{seed}" + ("" if camera == REALISTIC_PRESET else f"/{camera}")
+            + ("" if motion == "hand" else f"/{motion}"))
     return NaturalSequence(name=name, source=source, kind=kind, seed=seed, camera=camera, frames=frames,
                            homographies=Hs, anchor=anchor, occlusion=occ, roi=roi, K=K,
                            distortion=model.distortion, blur_samples=nblur, seconds=time.perf_counter() - start)
@@ -770,8 +781,11 @@ class NaturalBenchConfig:
     camera: str = REALISTIC_PRESET
     workers: int = 1
     threads: int = 1  # torch threads per process: timings on a shared machine stay comparable
+    motion: str = "hand"  # MOTIONS
 
     def __post_init__(self):
+        if self.motion not in MOTIONS:
+            raise choice_error("natural motion", self.motion, tuple(MOTIONS))
         for s in self.sources:
             if s not in NATURAL_SOURCES:
                 raise choice_error("natural source", s, NATURAL_SOURCES)
@@ -807,9 +821,9 @@ def _natural_job(args):
 
     from hvs_sim.bench.track import run_tracker
 
-    source, kind, seed, frames, methods, camera, threads = args
+    source, kind, seed, frames, methods, camera, threads, motion = args
     torch.set_num_threads(threads)
-    seq = make_natural_sequence(source, kind, seed, n_frames=frames, camera=camera)
+    seq = make_natural_sequence(source, kind, seed, n_frames=frames, camera=camera, motion=motion)
     res = {m: run_tracker(m, seq) for m in methods}
     f0, fk, k = _previews(seq)
     meta = {"roi": list(seq.roi), "generate_s": seq.seconds, "peak_occlusion": float(seq.occlusion.max()),
@@ -826,7 +840,7 @@ def run_natural_bench(config: NaturalBenchConfig, out: Path, progress: bool = Tr
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    jobs = [(s, k, seed, config.frames, config.methods, config.camera, config.threads)
+    jobs = [(s, k, seed, config.frames, config.methods, config.camera, config.threads, config.motion)
             for s in config.sources for k in config.kinds for seed in config.seeds]
     results, metas = {}, {}
     for key, res, meta in collect_jobs(_natural_job, jobs, config, out, "bench natural", "seq", progress):

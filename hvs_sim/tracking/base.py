@@ -69,6 +69,7 @@ class Tracker:
         self._shape: tuple[int, int] | None = None
         self.A = np.eye(3)
         self.template_confidence = 1.0  # trackability of the template taken at init, in [0, 1] (set by _init)
+        self.notes: list[str] = []  # what a user should be told about this run (a weak template, a choice made)
 
     def init(self, frame, roi) -> Track:
         """Take the template at `roi` of `frame`. Atomic: if it raises, the tracker is uninitialised
@@ -81,6 +82,7 @@ class Tracker:
         self.corners0 = roi_corners(roi)
         self.A = np.eye(3)
         self.template_confidence = 1.0
+        self.notes = []
         self._init(frame, roi)
         self._shape = frame.shape[:2]
         return self._track(Estimate(self.A, Mode.ALIGN, 0.0, 1.0, self.template_confidence), 0.0)

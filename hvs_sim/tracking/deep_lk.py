@@ -27,7 +27,7 @@ class DeepLKTracker(Tracker):
         self._seeded = False
         self.aligner.set_template(frame, roi)
         self.template_confidence = check_trackable(self.aligner.template, self.config.min_trackability,
-                                                   self.config.allow_untrackable, self.name)
+                                                   self.config.allow_untrackable, self.name, self.notes)
 
     def _seed(self, A) -> None:
         self._seeded = True

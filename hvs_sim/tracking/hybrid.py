@@ -40,6 +40,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field, replace
 
+import cv2
 import numpy as np
 
 from hvs_sim.errors import ConfigError
@@ -81,6 +82,13 @@ HYBRID_LK_HOMOGRAPHY = replace(HYBRID_LK, iterations=(15, 3))
 HYBRID_MARGIN = 5
 
 
+def _thumb(work: np.ndarray) -> np.ndarray:
+    """A small zero-mean, unit-norm copy of the working image: two frames of one shot correlate on it, a cut does not."""
+    t = cv2.resize(np.asarray(work, np.float32), CUT_THUMB, interpolation=cv2.INTER_AREA).ravel()
+    t = t - t.mean()
+    return t / max(float(np.linalg.norm(t)), 1e-9)
+
+
 def hybrid_deep_config(residual: bool = False, warp: str = "similarity") -> DeepLKConfig:
     """The hybrid's default alignment settings: the fast LK above (for `warp`), or, with the residual regressor,
     deep_lk's (pool2 → pool1 → conv1_2 on all channels)."""
@@ -90,6 +98,9 @@ def hybrid_deep_config(residual: bool = False, warp: str = "similarity") -> Deep
     return DeepLKConfig(lk=lk, margin=HYBRID_MARGIN, always_search_as_taken=False, search_near_first=True,
                         intensity_smooth="frame")
 
+
+TARGET_MOTIONS = ("static", "moving", "auto")  # HybridConfig.target_motion
+CUT_THUMB = (32, 24)  # the thumbnail two frames are compared on for a scene cut (w, h)
 
 CONFIDENCE_HALF_LIFE = 30  # frames (1 s at 30 Hz) since the last alignment over which an unaligned pose's confidence halves
 PREDICTED_CONFIDENCE = 0.5  # a predictor's guess, relative to a measurement of the scene's motion
@@ -134,6 +145,19 @@ class HybridConfig:
     reacquire_drift_px: float = 0.5
     reacquire_margin: float = 0.1
     reacquire_frames: int = 3
+    # what the target does: "static" (fixed in the scene, the servo case: the surroundings' motion is its motion, and
+    # a far jump must be verified), "moving" (it moves on its own, as footage often shows: a confident match is never
+    # vetoed by the surroundings, and the predictor extrapolates the target's own motion), or "auto": "moving" for
+    # the first `auto_frames` aligned frames, then whichever the net offset of the aligned target from where the
+    # surroundings' motion put it says (over `moving_px`: moving). The choice is in the tracker's `notes`.
+    target_motion: str = "static"
+    auto_frames: int = 15
+    moving_px: float = 6.0
+    # a scene cut: the frame's thumbnail correlates below `cut_ncc` with the previous one and the target is not found;
+    # the estimate is then lost (the surroundings' chain cannot cross a cut) until the target is aligned again
+    cut_ncc: float = 0.3
+    # a long run without an alignment ends in `lost`, whatever the surroundings say (10 s at 30 Hz)
+    max_unaligned_frames: int = 300
 
     def __post_init__(self):
         check_flags(self, ("continuity", "colour_occlusion", "gate_after_alignment", "background", "reanchor",
@@ -151,6 +175,14 @@ class HybridConfig:
                               f"{self.reacquire_px}, {self.reacquire_drift_px}, {self.reacquire_margin}")
         if not isinstance(self.reacquire_frames, int) or self.reacquire_frames < 1:
             raise ConfigError(f"reacquire_frames must be an int >= 1, got {self.reacquire_frames!r}")
+        if self.target_motion not in TARGET_MOTIONS:
+            raise ConfigError(f"target_motion must be one of {', '.join(TARGET_MOTIONS)}, got {self.target_motion!r}")
+        for name in ("auto_frames", "max_unaligned_frames"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ConfigError(f"{name} must be an int >= 1, got {value!r}")
+        if not (self.moving_px > 0 and -1 <= self.cut_ncc < 1):
+            raise ConfigError(f"need moving_px > 0 and cut_ncc in [-1, 1), got {self.moving_px}, {self.cut_ncc}")
 
 
 class HybridTracker(Tracker):
@@ -163,13 +195,18 @@ class HybridTracker(Tracker):
         self.aligner = Aligner(config.deep)
         self.warp = config.deep.warp
         predictor = make_predictor(config.predictor, config.history, config.gru_weights)
-        self.sources: list[MotionSource] = []
+        self.scene_sources: list[MotionSource] = []  # what the surroundings say: a static target's motion
         if config.background and config.reanchor:
-            self.sources.append(KeyframeAnchorSource(self.aligner, config.background_config, config.background_gate_px))
+            self.scene_sources.append(KeyframeAnchorSource(self.aligner, config.background_config,
+                                                           config.background_gate_px))
+        self.scene_motion = None
         if config.background:
-            self.sources.append(SceneMotionSource(self.aligner, config.background_config, config.background_gate_px))
-        self.sources.append(PredictorSource(predictor, config.max_predict_frames))
+            self.scene_motion = SceneMotionSource(self.aligner, config.background_config, config.background_gate_px)
+            self.scene_sources.append(self.scene_motion)
+        self.predictor_source = PredictorSource(predictor, config.max_predict_frames)
+        self.sources: list[MotionSource] = []
         self.state: HybridState | None = None
+        self.target_motion: str | None = None  # "static" or "moving"; None while `auto` is still deciding
         # wall ms per stage of the last update (STAGES; the benchmark reads it): "prepare" (grey and
         # working images), "coarse" (global match and OP_t of the seeds), "occlusion" (colour OP_t),
         # "features" (VGG), "lk", "refine" (ECC, homography), "sources" (the predict path)
@@ -179,12 +216,17 @@ class HybridTracker(Tracker):
         al = self.aligner
         work = al.set_template(frame, roi)
         self.template_confidence = check_trackable(al.template, self.config.min_trackability,
-                                                   self.config.allow_untrackable, self.name)
+                                                   self.config.allow_untrackable, self.name, self.notes)
         self.colour_reference = None  # OP_t in colour (occlusion.py), when configured and the frames have colour
         if self.hconfig.colour_occlusion and frame.ndim == 3:
             self.colour_reference = OcclusionReference(al.template_patch(al.work_colour(frame)), self.config.tau_pix,
                                                        self.config.normalise_exposure)
-        self.state = HybridState(center0=self.center0, A=np.eye(3), keyframe=(work, np.eye(3)))
+        self.state = HybridState(center0=self.center0, A=np.eye(3), keyframe=(work, np.eye(3)), thumb=_thumb(work))
+        c = self.hconfig
+        self.target_motion = None if c.target_motion == "auto" else c.target_motion
+        self._evidence, self._evidence_frames, self._aligned_frames = np.zeros(2), 0, 0
+        self.sources = ([self.predictor_source] if self.target_motion == "moving" else
+                        [*self.scene_sources, self.predictor_source])
         for s in self.sources:
             s.reset(self.state)
 
@@ -208,7 +250,7 @@ class HybridTracker(Tracker):
     def _verified(self, A: np.ndarray, m) -> bool:
         """Whether an alignment may move the estimate there (HybridConfig.verify_reacquisition)."""
         c, st = self.hconfig, self.state
-        if not c.verify_reacquisition:
+        if not c.verify_reacquisition or self.target_motion != "static":  # a moving target may be anywhere
             return True
         offset = matrix_to_pose(A, st.center0)[:2] - matrix_to_pose(st.A, st.center0)[:2]
         allowed = c.reacquire_px + c.background_gate_px * st.predict_run + c.reacquire_drift_px * st.since_aligned
@@ -219,6 +261,26 @@ class HybridTracker(Tracker):
             st.jump_seen(None, 0.0)
             return False
         return st.jump_seen(offset, c.background_gate_px) >= c.reacquire_frames
+
+    def _judge_motion(self, work: np.ndarray, A: np.ndarray) -> None:
+        """`auto`: add this aligned frame's evidence (where the aligned target is, against where the surroundings'
+        motion since the last alignment puts it), and decide once there is enough (HybridConfig.target_motion)."""
+        c, st = self.hconfig, self.state
+        self._aligned_frames += 1
+        A_scene = self.scene_motion.measure(work) if self.scene_motion is not None else None
+        if A_scene is not None:
+            self._evidence += matrix_to_pose(A, st.center0)[:2] - matrix_to_pose(A_scene, st.center0)[:2]
+            self._evidence_frames += 1
+        if self._evidence_frames < c.auto_frames and self._aligned_frames < 3 * c.auto_frames:
+            return
+        offset = float(np.linalg.norm(self._evidence))
+        self.target_motion = "moving" if offset > c.moving_px else "static"
+        if self.target_motion == "moving":
+            self.sources = [self.predictor_source]
+        seen = (f"the aligned target ended {offset:.1f} px from where its surroundings' motion put it over "
+                f"{self._evidence_frames} frames" if self._evidence_frames else "the surroundings could not be measured")
+        self.notes.append(f"target motion: auto chose {self.target_motion} at frame {st.frame_index} ({seen}; "
+                          f"over {c.moving_px:g} px means moving)")
 
     def _unaligned_confidence(self, kind: Kind) -> float:
         """Confidence of a pose not aligned on this frame: it halves every CONFIDENCE_HALF_LIFE frames
@@ -233,6 +295,7 @@ class HybridTracker(Tracker):
         st.frame_index += 1
         t0 = time.perf_counter()
         work = al.work_image(frame)
+        cut = st.saw(_thumb(work)) < self.hconfig.cut_ncc  # nothing of the last frame is in this one
         t1 = time.perf_counter()
         m, A_seed, occ, is_current = al.coarse(work, st.A)
         t2 = time.perf_counter()
@@ -252,6 +315,8 @@ class HybridTracker(Tracker):
                 if occ_aligned >= gate:
                     A_new = None
             if A_new is not None and self._verified(al.to_full(A_new), m):
+                if self.target_motion is None:
+                    self._judge_motion(work, al.to_full(A_new))
                 st.aligned(work, al.to_full(A_new), self.sources)
                 return Estimate(st.A, Mode.ALIGN, occ_aligned, m.score)
             if occ_aligned >= gate:  # not gated in (where _verified ran, it keeps its own count)
@@ -259,13 +324,17 @@ class HybridTracker(Tracker):
         else:
             st.jump_seen(None, 0.0)
         t4 = time.perf_counter()
-        est = self._predict(work, occ, m)
+        est = self._predict(work, occ, m, cut)
         self.stage_ms["sources"] = 1e3 * (time.perf_counter() - t4)
         return est
 
-    def _predict(self, work: np.ndarray, occ: float, m) -> Estimate:
-        """The first motion source with a proposal moves the estimate (module docstring)."""
+    def _predict(self, work: np.ndarray, occ: float, m, cut: bool) -> Estimate:
+        """The first motion source with a proposal moves the estimate (module docstring); after a scene cut, or too
+        long without an alignment, the estimate is lost until the target is aligned again."""
         st = self.state
+        if cut or st.after_cut or st.since_aligned >= self.hconfig.max_unaligned_frames:
+            st.lost(work, self.sources, cut=cut)
+            return Estimate(st.A, Mode.LOST, occ, m.score, 0.0)
         for source in self.sources:
             proposal = source.propose(work, st)
             if proposal is None:

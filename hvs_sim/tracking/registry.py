@@ -60,6 +60,15 @@ TRACKERS: dict[str, TrackerSpec] = {
     "hybrid_unverified_reacquisition": TrackerSpec("hybrid", {"verify_reacquisition": False},
                                                    "a far global-match jump is accepted without verification",
                                                    "#f7b6d2"),
+    "hybrid_no_cut_test": TrackerSpec("hybrid", {"cut_ncc": -1.0},
+                                      "no scene-cut test: the surroundings' chain is trusted across a cut",
+                                      "#393b79"),
+    "hybrid_moving": TrackerSpec("hybrid", {"target_motion": "moving"},
+                                 "the target moves on its own: no veto from the surroundings, the predictor alone "
+                                 "fills gaps", "#637939"),
+    "hybrid_auto_motion": TrackerSpec("hybrid", {"target_motion": "auto"},
+                                      "static or moving chosen from the first aligned frames (what `track` runs)",
+                                      "#8c6d31"),
 }
 
 TRACKER_NAMES = tuple(TRACKERS)

@@ -122,7 +122,9 @@ class SceneMotionSource:
         self.last_aligned: tuple[int, np.ndarray] | None = None
         self.key = state.keyframe  # (work image, full-res warp) where the chain starts
 
-    def propose(self, work, state):
+    def measure(self, work) -> np.ndarray | None:
+        """Where the surroundings' motion since the chain's start puts the target (full-res warp), ungated; None when
+        the surroundings cannot be measured."""
         key_work, A_key = self.key
         if not self.motion.active:
             self.motion.start(key_work)
@@ -130,7 +132,12 @@ class SceneMotionSource:
         if M is None:
             return None
         al = self.aligner
-        A = al.S_inv @ M @ al.S @ A_key  # (keyframe → this frame, full-res) ∘ keyframe warp
+        return al.S_inv @ M @ al.S @ A_key  # (keyframe → this frame, full-res) ∘ keyframe warp
+
+    def propose(self, work, state):
+        A = self.measure(work)
+        if A is None:
+            return None
         moved = np.linalg.norm(_translation(A, state.center0) - _translation(state.A, state.center0))
         if moved > self.gate_px * (1 + state.predict_run):
             return None
@@ -202,6 +209,14 @@ class HybridState:
     # consecutive frames it was seen
     jump: np.ndarray | None = None
     jump_frames: int = 0
+    thumb: np.ndarray | None = None  # the last frame's thumbnail (HybridTracker's cut test)
+    after_cut: bool = False  # a scene cut was seen and the target not aligned since: lost
+
+    def saw(self, thumb: np.ndarray) -> float:
+        """This frame's thumbnail replaces the last one; returns how the two correlate (1: one shot, ~0: a cut)."""
+        ncc = 1.0 if self.thumb is None else float(thumb @ self.thumb)
+        self.thumb = thumb
+        return ncc
 
     def jump_seen(self, offset: np.ndarray | None, tolerance_px: float) -> int:
         """Record this frame's far re-acquisition candidate (None: there is none); returns on how
@@ -217,6 +232,7 @@ class HybridState:
         self.A = A
         self.predict_run = self.drift_run = self.since_aligned = 0
         self.jump, self.jump_frames = None, 0
+        self.after_cut = False
         self.keyframe = (work, A)
         for s in sources:
             s.on_aligned(work, self)
@@ -239,6 +255,7 @@ class HybridState:
         for s in sources:
             s.on_predicted(work, self)
 
-    def lost(self, work: np.ndarray, sources: list[MotionSource]) -> None:
-        """Nothing trustworthy: the estimate stays where it is."""
+    def lost(self, work: np.ndarray, sources: list[MotionSource], cut: bool = False) -> None:
+        """Nothing trustworthy: the estimate stays where it is (after a scene cut, until the next alignment)."""
+        self.after_cut = self.after_cut or cut
         self.predicted(work, self.A, sources)

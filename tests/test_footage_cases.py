@@ -1,0 +1,100 @@
+"""The hybrid on footage cases its servo prior does not fit (bench/footage.py): a target that moves on its own
+(`target_motion`), a scene cut and a long run without an alignment (lost means lost)."""
+
+import cv2
+import numpy as np
+import pytest
+
+from hvs_sim.bench.footage import moving_object, scene_cut
+from hvs_sim.errors import ConfigError
+from hvs_sim.tracking import make_tracker
+
+
+def follow(case, tracker):
+    tracker.init(case.frames[0], case.roi)
+    tracks = [tracker.update(f) for f in case.frames[1:]]
+    err = np.array([np.hypot(*(t.center - c)) for t, c in zip(tracks, case.centres[1:], strict=True)])
+    return tracks, err
+
+
+@pytest.fixture(scope="module")
+def moving():
+    return moving_object(2)
+
+
+def test_auto_finds_a_target_that_moves_on_its_own_and_follows_it(moving):
+    tracker = make_tracker("hybrid", target_motion="auto")
+    _, err = follow(moving, tracker)
+    assert (err <= 2).mean() == 1.0, np.nanmax(err)
+    assert tracker.target_motion == "moving" and any("auto chose moving" in n for n in tracker.notes), tracker.notes
+
+
+def test_the_static_prior_vetoes_a_moving_target(moving):
+    """Why the setting exists: with the servo loop's prior the estimate stays behind (`static` is still the loop's)."""
+    _, err = follow(moving, make_tracker("hybrid"))
+    assert (err <= 2).mean() < 0.2
+
+
+def test_auto_keeps_a_target_fixed_in_a_drifting_view_static():
+    case = scene_cut(2, cut_at=60, n_frames=60)  # no cut: a drifting view of one picture
+    tracker = make_tracker("hybrid", target_motion="auto")
+    tracks, err = follow(case, tracker)
+    assert tracker.target_motion == "static" and any("auto chose static" in n for n in tracker.notes)
+    assert (err <= 2).mean() == 1.0 and all(t.mode == "align" for t in tracks)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_a_scene_cut_ends_in_lost_at_the_cut_and_stays_lost(seed):
+    case = scene_cut(seed)
+    tracks, err = follow(case, make_tracker("hybrid"))
+    before, after = tracks[:case.cut_at - 1], tracks[case.cut_at - 1:]
+    assert (err[:case.cut_at - 1] <= 2).all()
+    assert [t.mode for t in after] == ["lost"] * len(after)
+    # without the cut test the surroundings' chain goes on measuring the new shot: `predict`, never lost
+    blind = [t.mode for t in follow(case, make_tracker("hybrid_no_cut_test"))[0][case.cut_at - 1:]]
+    assert "lost" not in blind[:30]
+    assert before[-1].mode == "align"
+
+
+def test_a_long_run_without_an_alignment_ends_in_lost():
+    """The target is painted over from frame 10 while the surroundings stay in view: the scene's motion keeps the
+    estimate for `max_unaligned_frames`, then it is lost whatever the surroundings say."""
+    case = scene_cut(1, cut_at=60, n_frames=60)
+    _, _, w, h = case.roi
+    frames = [f.copy() for f in case.frames]
+    for k in range(10, len(frames)):
+        cx, cy = case.centres[k]
+        cv2.rectangle(frames[k], (int(cx - w), int(cy - h)), (int(cx + w), int(cy + h)), (128, 128, 128), -1)
+    tracker = make_tracker("hybrid", max_unaligned_frames=20)
+    tracker.init(frames[0], case.roi)
+    modes = [str(tracker.update(f).mode) for f in frames[1:]]
+    assert modes[:9] == ["align"] * 9
+    assert "lost" not in modes[9:9 + 19] and modes[9 + 20:] == ["lost"] * (len(modes) - 29), modes
+
+
+@pytest.mark.parametrize("bad", [{"target_motion": "walking"}, {"auto_frames": 0}, {"moving_px": 0},
+                                 {"cut_ncc": 1.5}, {"max_unaligned_frames": True}])
+def test_bad_motion_settings_are_refused(bad):
+    with pytest.raises(ConfigError, match=next(iter(bad))):
+        make_tracker("hybrid", **bad)
+
+
+def test_track_cli_target_option(moving, tmp_path, capsys):
+    from hvs_sim.cli import main
+
+    folder = tmp_path / "clip"
+    folder.mkdir()
+    for k, f in enumerate(moving.frames[:40]):
+        cv2.imwrite(str(folder / f"f{k:03d}.png"), cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
+    roi = ",".join(map(str, moving.roi))
+    assert main(["track", str(folder), "--roi", roi, "--out", str(tmp_path / "auto")]) == 0
+    assert "note: target motion: auto chose moving" in capsys.readouterr().out
+    rows = (tmp_path / "auto" / "track.csv").read_text().splitlines()[1:]
+    last = rows[-1].split(",")
+    assert np.hypot(float(last[1]) - moving.centres[39][0], float(last[2]) - moving.centres[39][1]) <= 2
+    assert main(["track", str(folder), "--roi", roi, "--tracker", "ecc", "--target", "static", "--out",
+                 str(tmp_path / "ecc")]) == 2
+    assert "has none" in capsys.readouterr().err
+    assert main(["track", str(folder), "--roi", roi, "--target", "static", "--set", "target_motion=moving", "--out",
+                 str(tmp_path / "both")]) == 2
+    assert "disagree" in capsys.readouterr().err
