@@ -98,3 +98,21 @@ def test_track_cli_target_option(moving, tmp_path, capsys):
     assert main(["track", str(folder), "--roi", roi, "--target", "static", "--set", "target_motion=moving", "--out",
                  str(tmp_path / "both")]) == 2
     assert "disagree" in capsys.readouterr().err
+
+
+def test_a_moving_target_leaves_its_track_only_for_a_unique_match(moving):
+    """`moving` drops the surroundings' veto, not every check: a match far from where the target's own motion puts
+    it is taken only when no look-alike scores near it (repetitive texture)."""
+    from types import SimpleNamespace
+
+    from hvs_sim.tracking.warp import translate
+
+    tracker = make_tracker("hybrid", target_motion="moving")
+    for frame in moving.frames[:6]:
+        (tracker.init(frame, moving.roi) if frame is moving.frames[0] else tracker.update(frame))
+    expected = tracker.predictor_source.predictor.peek()
+    here = translate(np.eye(3), expected)
+    far = translate(np.eye(3), expected + np.array([30.0, 0.0]))
+    look_alike, unique = SimpleNamespace(score=0.9, second=0.88), SimpleNamespace(score=0.9, second=0.5)
+    assert tracker._verified(here, look_alike)
+    assert not tracker._verified(far, look_alike) and tracker._verified(far, unique)

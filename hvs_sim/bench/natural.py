@@ -712,10 +712,10 @@ def make_natural_sequence(source: str, kind: str, seed: int, n_frames: int = 150
         H = path.homography(t)
         Hs[k] = H
         # the picture, averaged over the exposure (the frame time is its end)
-        motion = 0.0
+        smear = 0.0  # image motion over the exposure (px)
         if exposure > 0:
-            motion = float(np.abs(_apply(H @ np.linalg.inv(path.homography(t - exposure)), probes) - probes).max())
-        offsets = model.exposure_offsets(_blur_samples(motion, model))
+            smear = float(np.abs(_apply(H @ np.linalg.inv(path.homography(t - exposure)), probes) - probes).max())
+        offsets = model.exposure_offsets(_blur_samples(smear, model))
         nblur[k] = len(offsets)
         linear = None
         for dt in offsets:

@@ -248,10 +248,18 @@ class HybridTracker(Tracker):
         return self.colour_reference(patch, inside)
 
     def _verified(self, A: np.ndarray, m) -> bool:
-        """Whether an alignment may move the estimate there (HybridConfig.verify_reacquisition)."""
+        """Whether an alignment may move the estimate there (HybridConfig.verify_reacquisition). A static target's
+        far jump from where the surroundings put it must be unique and seen on several frames; a moving target's
+        far jump from where its own motion puts it (the predictor) must be unique: a look-alike on repetitive
+        texture is no reason to leave the track."""
         c, st = self.hconfig, self.state
-        if not c.verify_reacquisition or self.target_motion != "static":  # a moving target may be anywhere
+        if not c.verify_reacquisition:
             return True
+        if self.target_motion != "static":
+            expected = self.predictor_source.predictor.peek()
+            miss = np.linalg.norm(matrix_to_pose(A, st.center0)[:2] - expected)
+            return miss <= c.reacquire_px + c.background_gate_px * st.predict_run or \
+                m.score - m.second >= c.reacquire_margin
         offset = matrix_to_pose(A, st.center0)[:2] - matrix_to_pose(st.A, st.center0)[:2]
         allowed = c.reacquire_px + c.background_gate_px * st.predict_run + c.reacquire_drift_px * st.since_aligned
         if np.linalg.norm(offset) <= allowed:

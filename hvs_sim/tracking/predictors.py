@@ -38,10 +38,14 @@ class MotionPredictor:
     def history(self) -> np.ndarray:
         return np.array((list(self.confident) + self.rollout)[-self.k:])
 
+    def peek(self) -> np.ndarray:
+        """The translation `predict` would give for the current frame, without rolling out."""
+        h = self.history()
+        return h[-1] + self._step(h) if len(h) >= 2 else (h[-1] if len(h) else np.zeros(2))
+
     def predict(self) -> np.ndarray:
         """Translation for the current frame (one step past the history), appended to the rollout."""
-        h = self.history()
-        nxt = h[-1] + self._step(h) if len(h) >= 2 else (h[-1] if len(h) else np.zeros(2))
+        nxt = self.peek()
         self.rollout.append(nxt)
         return nxt
 
