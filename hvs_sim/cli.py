@@ -117,9 +117,11 @@ def cmd_run(args) -> int:
     from hvs_sim.outputs import check_apart
     from hvs_sim.runner import steps_csv_path
 
+    if args.mcap and Path(args.mcap).exists():
+        raise ConfigError(f"--mcap {args.mcap} exists: a ROS 2 bag is a new folder; give a path that does not exist")
     check_apart([p for p in (args.target_image, args.wall_images) if p],
                 {"--json": args.json and Path(args.json), "--json's steps CSV": args.json and steps_csv_path(args.json),
-                 "--rrd": args.rrd and Path(args.rrd),
+                 "--rrd": args.rrd and Path(args.rrd), "--mcap": args.mcap and Path(args.mcap),
                  **{f"--figures' {name}": args.figures and Path(args.figures) / name
                     for name in ("frames.png", "error.png")}})
     for flag, path in (("--json", args.json), ("--rrd", args.rrd)):
@@ -143,11 +145,12 @@ def cmd_run(args) -> int:
         scenario = dataclasses.replace(scenario, start_offset=parse_start_offset(args.start_offset))
     config = LoopConfig(steps=args.steps, controller=args.controller, policy=args.policy, evaluate=not args.no_eval,
                         pipeline=args.pipeline,
-                        keep_frames=bool(args.rrd or args.spawn or args.figures), template_from=args.template_from,
+                        keep_frames=bool(args.rrd or args.spawn or args.figures or args.mcap),
+                        template_from=args.template_from,
                         roi_inset_px=args.roi_inset, goal_frames=args.goal_frames,
                         feature_filter=args.feature_filter)
     summary, _ = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,
-                             tracker_settings=settings, figures=args.figures)
+                             tracker_settings=settings, figures=args.figures, mcap=args.mcap)
     brief = {k: summary[k] for k in ("converged", "held_to_end", "steps_to_converge", "final_error_px",
                                      "final_pose_error_mm", "final_pose_error_deg", "controlled_dofs",
                                      "max_error_px_during_occlusion", "lost_steps", "predict_steps", "fault_steps",
@@ -597,6 +600,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "default: the scenario's (0.03,-0.02,0.06,6,0,0)")
     p.add_argument("--json", default=None, help="write the run summary here")
     p.add_argument("--rrd", default=None, help="save a rerun recording here")
+    p.add_argument("--mcap", default=None, metavar="DIR",
+                   help="also write a ROS 2 bag (MCAP) into this new folder: image, camera info, joint states, tf, "
+                        "commanded twist, corners (hvs_sim/viz/rosbag.py)")
     p.add_argument("--spawn", action="store_true", help="open the rerun viewer")
     add_settings_option(p)
     p.add_argument("--figures", default=None, metavar="DIR",

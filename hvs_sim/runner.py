@@ -22,8 +22,9 @@ FIGURE_RISING_OCCLUSION = 0.3  # frames.png's second tile: the first step with m
 def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = None, rrd: str | None = None,
                 spawn: bool = False, progress: bool = True, json_path: str | None = None,
                 keep_records: bool = False, tracker_settings: dict | None = None,
-                figures: str | Path | None = None) -> tuple[dict, list[StepRecord]]:
-    """Run and summarise one episode; write an .rrd, JSON (+ per-step CSV) and figures when paths are given.
+                figures: str | Path | None = None, mcap: str | Path | None = None) -> tuple[dict, list[StepRecord]]:
+    """Run and summarise one episode; write an .rrd, JSON (+ per-step CSV), a ROS 2 bag (`mcap`, a new folder) and
+    figures when paths are given.
 
     Memory stays flat in the number of steps: the summary is accumulated (RunStats), the CSV rows and the
     recording are written as the run goes, and only the frames the figures show are held. The records are
@@ -56,6 +57,16 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
                              loop.scene.target_corners_world(), config=setup, wall=loop.scene.wall_box(),
                              arm_meshes=loop.scene.arm_meshes(), background=True,
                              plot_flush_every=plot_flush_steps(live=spawn), rrd=rrd)
+    bag = bag_tmp = None
+    if mcap:
+        from hvs_sim.viz.rosbag import BagRecorder, target_frame
+
+        Path(mcap).parent.mkdir(parents=True, exist_ok=True)
+        bag_tmp = temporary_beside(Path(mcap))  # renamed into place once the bag is closed
+        rig = getattr(loop.scene, "rig", None)
+        bag = BagRecorder(bag_tmp, loop.renderer.K, scenario.camera.width, scenario.camera.height,
+                          joint_names=[j.name for j in getattr(rig, "joints", [])] if scenario.mount == "arm" else (),
+                          target=target_frame(loop.scene.target_corners_world()))
     stats = RunStats(config)
     picks = FramePicks(config.steps) if figures else None
     records: list[StepRecord] = []
@@ -73,6 +84,8 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
             t0 = time.perf_counter()
             if logger is not None:
                 logger.log_step(r)
+            if bag is not None:
+                bag.log_step(r)
             r.timings["log"] = 1e3 * (time.perf_counter() - t0)
             stats.add(r)
             if steps_csv is not None:
@@ -102,6 +115,9 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
             logger.close()
             if rrd_tmp is not None and rrd_tmp.exists():  # a complete recording of the steps so far
                 settle(rrd_tmp, rrd, keep and logger.error is None)  # an unfinished recording is removed
+        if bag is not None:
+            bag.close()
+            _settle_folder(bag_tmp, Path(mcap), keep)
         if json_path and keep:
             write_atomic(json_path, json.dumps(_summary(scenario, tracker, stats, logger, interrupted), indent=2))
     summary = _summary(scenario, tracker, stats, logger, False)
@@ -111,6 +127,16 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
         summary["figures"] = [str(p) for p in run_figures(picks.records(), stats.series(), summary, Path(figures),
                                                            config.converge_px)]
     return summary, records
+
+
+def _settle_folder(tmp: Path, final: Path, keep: bool) -> None:
+    """A bag written into a temporary folder beside its target: renamed into place, or removed."""
+    import shutil
+
+    if keep:
+        tmp.rename(final)
+    else:
+        shutil.rmtree(tmp, ignore_errors=True)
 
 
 class FramePicks:

@@ -180,3 +180,17 @@ def test_a_far_reacquisition_needs_a_unique_match_on_consecutive_frames():
     unverified = make_tracker("hybrid", verify_reacquisition=False)
     unverified.init(img, ROI)
     assert unverified._verified(far, Match(np.zeros(2), 0.8, 0.78))
+
+
+@pytest.mark.parametrize("settings", [{}, {"warp": "homography"}, {"residual": True},
+                                      {"warp": "homography", "occlusion_gate": 0.3, "margin": 6}])
+def test_every_way_of_asking_for_a_hybrid_gives_the_same_tracker(settings):
+    """The hybrid's defaults are built in one place (HybridConfig.for_warp): make_tracker, the registry and the
+    config class agree."""
+    from hvs_sim.tracking.hybrid import HybridConfig
+
+    assert make_tracker("hybrid", **settings).hconfig == HybridConfig.for_warp(**settings)
+    if not settings:
+        assert HybridConfig() == HybridConfig.for_warp()
+    with pytest.raises(ConfigError, match="unknown setting"):
+        HybridConfig.for_warp(**settings, gate=0.4)

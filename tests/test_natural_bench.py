@@ -76,6 +76,27 @@ def test_occlusion_is_zero_when_clear_and_near_total_in_pause():
     assert np.all((pause.occlusion >= 0.0) & (pause.occlusion <= 1.0))
 
 
+def test_the_harder_occluders_cover_the_target_as_described():
+    """`lookalike` wears the picture around the target, `hand` is a defocused skin-coloured hand over the whole
+    target, `long` hides it for longer than `pause` with most of the view left visible."""
+    from hvs_sim.bench.natural import EXTRA_KINDS, NATURAL_KINDS
+
+    assert not set(EXTRA_KINDS) & set(NATURAL_KINDS)  # asked for by name: the default set's figures stay comparable
+    seqs = {k: make_natural_sequence("brick", k, 7, n_frames=150, camera="ideal") for k in ("pause", *EXTRA_KINDS)}
+    for kind, seq in seqs.items():
+        assert seq.occlusion[0] == 0.0 and seq.occlusion.max() >= 0.95, kind
+    covered = {k: int(np.sum(s.occlusion >= 0.9)) for k, s in seqs.items()}
+    assert covered["long"] >= 2 * covered["pause"] and covered["long"] >= 60  # ≥ 2 s fully hidden
+    assert 45 <= covered["hand"] <= 80  # ~2 s
+    x, y, w, h = seqs["pause"].roi
+    mean = {k: s.frames[int(np.argmax(s.occlusion))][y:y + h, x:x + w].reshape(-1, 3).mean(0) for k, s in seqs.items()}
+    scene = seqs["pause"].frames[0][y:y + h, x:x + w].reshape(-1, 3).mean(0)
+    # dressed like the wall behind: its colour (chromaticity), darker only by the shadow a body near the lens stands in
+    assert np.abs(mean["lookalike"] / mean["lookalike"].sum() - scene / scene.sum()).max() < 0.02
+    r, g, b = mean["hand"]
+    assert r > g > b  # skin
+
+
 def test_only_allowed_image_sources_are_loaded():
     """Every source in a fresh interpreter: scikit-image never imported, matplotlib's sample data and
     pywt's cameraman (scikit-image's) never read."""

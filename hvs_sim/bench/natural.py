@@ -67,8 +67,12 @@ NATURAL_PHOTOS = ("photo_china", "photo_flower", "photo_aero", "photo_ascent")  
 # gravel, bark, mosaic) that defeat a global re-detection
 NATURAL_PROCEDURAL = ("fur", "foliage", "brick", "gravel", "bark", "poster", "wood", "marble", "mosaic", "corkboard")
 NATURAL_SOURCES: tuple[str, ...] = NATURAL_PHOTOS + NATURAL_PROCEDURAL
-NATURAL_KINDS = ("clear", "walk_by", "pause", "partial")
-OCCLUDED_KINDS = ("walk_by", "pause", "partial")
+NATURAL_KINDS = ("clear", "walk_by", "pause", "partial")  # the default set: its figures stay comparable
+# harder occluders, asked for by name: a person dressed in the picture's own texture, a hand close to the lens
+# (skin, defocused) and a long pause (several seconds hidden while the phone keeps moving)
+EXTRA_KINDS = ("lookalike", "hand", "long")
+ALL_KINDS = NATURAL_KINDS + EXTRA_KINDS
+OCCLUDED_KINDS = ("walk_by", "pause", "partial", *EXTRA_KINDS)
 DEFAULT_SEEDS = (500, 501)
 
 FPS = 30.0  # as the simulator's scenarios
@@ -165,6 +169,13 @@ PAUSE_OFFSET = 0.2  # stop within this fraction of the free half-width from dead
 SWAY_PX = (3.0, 8.0)
 SWAY_HZ = (0.3, 0.6)
 SWAY_DEG = (0.3, 1.0)
+LONG_STAY_S = (2.5, 3.0)  # `long`: standing still over the target while the phone keeps moving
+LONG_WIDTH_PX = (260, 340)  # ... and narrower than `pause`'s, so that most of the surroundings stay in view
+HAND_STAY_S = (1.8, 2.2)  # `hand`: held over the target for ~2 s
+HAND_WIDTH_OF_ROI = (1.4, 1.8)  # the hand's width over the ROI's: it covers the whole target
+HAND_DEFOCUS_PX = 5.0  # a hand 10–20 cm from the lens is far out of focus: its edges and skin texture blur
+HAND_EDGE_PX = 6.0
+LOOKALIKE_CROP = 2.5  # `lookalike`: the clothing is the picture around the target, this many ROI widths across
 PARTIAL_WIDTH_PX = (280, 460)
 PARTIAL_START = (0.05, 0.12)
 PARTIAL_END = (0.82, 0.9)
@@ -394,11 +405,56 @@ def _round_shade(mask: np.ndarray, half_width: float) -> np.ndarray:
     return SHADE_EDGE + (1.0 - SHADE_EDGE) * np.sqrt(np.clip(d / max(half_width, 1.0), 0.0, 1.0))
 
 
-def make_body(rng: np.random.Generator, width_px: float, view_height: int) -> Body:
+def _lookalike_cloth(picture: np.ndarray, anchor: np.ndarray, roi, zoom: float,
+                     rng: np.random.Generator) -> tuple[np.ndarray, int]:
+    """A piece of the picture beside the target (LOOKALIKE_CROP ROI widths across, its centre that far from the
+    target's in a seeded direction, sRGB) and its side in view pixels: clothing of the scene's own texture at the
+    scene's scale (a brick-print shirt before a brick wall), not a copy of the target itself."""
+    side = max(8, round(LOOKALIKE_CROP * roi[2] / zoom))  # picture px
+    ph, pw = picture.shape[:2]
+    heading = rng.uniform(0, 2 * np.pi)
+    cx, cy = anchor + side * np.array([np.cos(heading), np.sin(heading)])
+    x0 = int(np.clip(round(cx - side / 2), 0, max(pw - side, 0)))
+    y0 = int(np.clip(round(cy - side / 2), 0, max(ph - side, 0)))
+    crop = encode(np.ascontiguousarray(picture[y0:y0 + side, x0:x0 + side]))
+    return crop, max(16, round(side * zoom))
+
+
+def make_hand(rng: np.random.Generator, width_px: float) -> Body:
+    """An open hand close to the lens: palm, four fingers and a thumb in a sampled skin tone, defocused (its
+    texture and edges blurred by HAND_DEFOCUS_PX and HAND_EDGE_PX); the anchor is the palm's centre."""
+    from hvs_sim.scene.people import Outfit, skin_texture
+
+    outfit = Outfit.sample(rng)
+    B = float(width_px)
+    pad = 3 * HAND_EDGE_PX
+    w, h = math.ceil(B + 2 * pad), math.ceil(1.5 * B + 2 * pad)
+    ax, ay = w / 2.0, pad + 0.95 * B
+    shape = (h, w)
+    mask = _ellipse_mask(shape, (ax, ay), (0.42 * B, 0.45 * B))  # the palm
+    for k in range(4):  # fingers, fanned a little
+        x = ax + (k - 1.5) * 0.2 * B
+        top = ay - (0.85 + 0.08 * (1.5 - abs(k - 1.5))) * B
+        mask = np.maximum(mask, _poly_mask(shape, _rounded_rect(x - 0.085 * B, top, x + 0.085 * B, ay, 0.085 * B)))
+    side = 1 if rng.uniform() < 0.5 else -1
+    thumb_x = ax + side * 0.45 * B
+    mask = np.maximum(mask, _poly_mask(shape, _rounded_rect(thumb_x - 0.1 * B, ay - 0.35 * B, thumb_x + 0.1 * B,
+                                                            ay + 0.15 * B, 0.1 * B)))
+    skin = _tile(skin_texture(outfit.skin, int(rng.integers(2 ** 31))), max(16, round(0.6 * B)), shape)
+    skin = cv2.GaussianBlur(skin, (0, 0), HAND_DEFOCUS_PX)
+    shaded = skin * (_round_shade(mask, 0.5 * B) * np.float32(_u(rng, PERSON_LIGHT)))[..., None]
+    alpha = cv2.GaussianBlur(mask, (0, 0), HAND_EDGE_PX)
+    rgba = np.dstack([shaded * alpha[..., None], alpha]).astype(np.float32)
+    return Body(rgba, (ax, ay), B)
+
+
+def make_body(rng: np.random.Generator, width_px: float, view_height: int,
+              cloth: tuple[np.ndarray, int] | None = None) -> Body:
     """A person seen from close by, front or back: head with hair, neck, torso, two arms in sleeves, hands.
 
     The outfit (fabric kind and colours, skin tone, hair colour) is `people.Outfit.sample`'s, so the bodies
-    wear what the simulator's people wear.
+    wear what the simulator's people wear; `cloth` (an sRGB texture and its side in view px) dresses the top in
+    something else (`lookalike`: the picture itself).
     """
     from hvs_sim.scene.people import TOPS, Outfit, fabric_texture, hair_texture, skin_texture
 
@@ -411,8 +467,9 @@ def make_body(rng: np.random.Generator, width_px: float, view_height: int) -> Bo
     ax, ay = (w - 1) / 2.0, top
     shape = (h, w)
     tile = max(16, round(TILE_OF_BODY * B))
-    cloth = _tile(fabric_texture(outfit.top_fabric.kind, outfit.top_fabric.colours, outfit.top_fabric.seed, FABRIC_DRAW),
-                  tile, shape)
+    cloth = (_tile(cloth[0], cloth[1], shape) if cloth is not None else
+             _tile(fabric_texture(outfit.top_fabric.kind, outfit.top_fabric.colours, outfit.top_fabric.seed,
+                                  FABRIC_DRAW), tile, shape))
     tex_seed = int(rng.integers(2 ** 31))
     skin = _tile(skin_texture(outfit.skin, tex_seed), tile, shape)
     hair = _tile(hair_texture(outfit.hair, tex_seed + 1), tile, shape)
@@ -516,11 +573,13 @@ def _person(kind: str, rng: np.random.Generator, roi, view: tuple[int, int], dur
         t_mid = max(_u(rng, (0.35, 0.65)) * duration, min(lead, 0.65 * duration))
         params = {"x_mid": gx, "dir": side, "speed": speed, "t_mid": t_mid, "step_hz": _u(rng, STEP_HZ),
                   "bob": BOB * B, "lean": math.radians(LEAN_DEG), "ph": _u(rng, (0, 2 * np.pi))}
-    elif kind == "pause":
-        B = _u(rng, PAUSE_WIDTH_PX)
+    elif kind in ("pause", "lookalike", "long", "hand"):
+        B = (_u(rng, LONG_WIDTH_PX) if kind == "long" else rw * _u(rng, HAND_WIDTH_OF_ROI) if kind == "hand" else
+             _u(rng, PAUSE_WIDTH_PX))
+        stay = {"long": LONG_STAY_S, "hand": HAND_STAY_S}.get(kind, PAUSE_STAY_S)
         t_in = _u(rng, PAUSE_START) * duration
         t_stay = t_in + _u(rng, PAUSE_MOVE_S) * r
-        t_leave = t_stay + _u(rng, PAUSE_STAY_S) * r
+        t_leave = t_stay + _u(rng, stay) * r
         t_out = t_leave + _u(rng, PAUSE_MOVE_S) * r
         stop = gx + rng.uniform(-PAUSE_OFFSET, PAUSE_OFFSET) * (B - rw) / 2
         params = {"t_in": t_in, "t_stay": t_stay, "t_leave": t_leave, "t_out": t_out, "x_stay": lambda t, s=stop: s,
@@ -545,8 +604,8 @@ def _person(kind: str, rng: np.random.Generator, roi, view: tuple[int, int], dur
                   "x_to": _off_view(side, B, vw), "sway": 0.0, "sway_hz": _u(rng, SWAY_HZ),
                   "lean": math.radians(_u(rng, SWAY_DEG))}
     else:  # pragma: no cover - kinds are checked by the caller
-        raise choice_error("kind", kind, NATURAL_KINDS)
-    params["y"] = gy - rh / 2 - _u(rng, SHOULDER_ABOVE_ROI) * B
+        raise choice_error("kind", kind, ALL_KINDS)
+    params["y"] = gy if kind == "hand" else gy - rh / 2 - _u(rng, SHOULDER_ABOVE_ROI) * B  # a hand: its centre
     params.setdefault("ph", _u(rng, (0, 2 * np.pi)))
     return PersonPath(kind, params), B
 
@@ -586,8 +645,8 @@ class NaturalSequence:
 def _check(source: str, kind: str, seed, n_frames, size) -> tuple[int, int]:
     if source not in NATURAL_SOURCES:
         raise choice_error("natural source", source, NATURAL_SOURCES)
-    if kind not in NATURAL_KINDS:
-        raise choice_error("natural kind", kind, NATURAL_KINDS)
+    if kind not in ALL_KINDS:
+        raise choice_error("natural kind", kind, ALL_KINDS)
     for what, v, low in (("seed", seed, 0), ("n_frames", n_frames, 2)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < low:
             raise ConfigError(f"natural sequence {what} must be an integer >= {low}, got {v!r}")
@@ -655,7 +714,7 @@ def make_natural_sequence(source: str, kind: str, seed: int, n_frames: int = 150
                           size=(640, 480), motion: str = "hand") -> NaturalSequence:
     """A seeded hand-held sequence of a planar picture, optionally with a person crossing, pausing or standing beside.
 
-    source: one of NATURAL_SOURCES; kind: one of NATURAL_KINDS; camera: a `camera_model` preset (`ideal`
+    source: one of NATURAL_SOURCES; kind: one of ALL_KINDS; camera: a `camera_model` preset (`ideal`
     gives clean frames); motion: one of MOTIONS. Returns a `NaturalSequence` (frames, roi, gt_track, occlusion, name).
     """
     start = time.perf_counter()
@@ -688,7 +747,12 @@ def make_natural_sequence(source: str, kind: str, seed: int, n_frames: int = 150
     if kind != "clear":
         prng = _rng(source, seed, PERSON_STREAM, zlib.crc32(kind.encode()))
         person, width = _person(kind, prng, roi, view, n_frames / FPS)
-        body = make_body(prng, width, h)
+        if kind == "hand":
+            body = make_hand(prng, width)
+        elif kind == "lookalike":
+            body = make_body(prng, width, h, cloth=_lookalike_cloth(picture, anchor, roi, path.zoom, prng))
+        else:
+            body = make_body(prng, width, h)
 
     sensor_seed = zlib.crc32(f"{source}:{seed}".encode()) & 0x7FFFFFFF
     state = None if model.is_ideal else SensorState(model, sensor_seed, (h, w))
@@ -790,8 +854,8 @@ class NaturalBenchConfig:
             if s not in NATURAL_SOURCES:
                 raise choice_error("natural source", s, NATURAL_SOURCES)
         for k in self.kinds:
-            if k not in NATURAL_KINDS:
-                raise choice_error("natural kind", k, NATURAL_KINDS)
+            if k not in ALL_KINDS:
+                raise choice_error("natural kind", k, ALL_KINDS)
         from hvs_sim.tracking import TRACKER_NAMES
 
         for m in self.methods:

@@ -61,12 +61,9 @@ def _builder(name: str, config: dict):
         unknown = set(config) - hybrid_keys - deep_keys
         if unknown:
             raise _unknown_settings(name, unknown, hybrid_keys | deep_keys)
-        base_deep = hybrid_deep_config(residual=bool(config.get("residual", False)),
-                                       warp=config.get("warp", "similarity"))
-        config = _lk_from_dict(name, config, base_deep.lk)
-        deep = DeepLKConfig(**{**{f.name: getattr(base_deep, f.name) for f in fields(DeepLKConfig)},
-                               **{k: v for k, v in config.items() if k in deep_keys}})
-        cfg = HybridConfig(deep=deep, **{k: v for k, v in config.items() if k in hybrid_keys})
+        base_lk = hybrid_deep_config(residual=bool(config.get("residual", False)),
+                                     warp=config.get("warp", "similarity")).lk
+        cfg = HybridConfig.for_warp(**_lk_from_dict(name, config, base_lk))
         return lambda: HybridTracker(cfg)
     from hvs_sim.tracking.baselines import EccTracker, SiftTracker
 

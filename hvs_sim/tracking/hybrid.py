@@ -159,6 +159,24 @@ class HybridConfig:
     # a long run without an alignment ends in `lost`, whatever the surroundings say (10 s at 30 Hz)
     max_unaligned_frames: int = 300
 
+    @classmethod
+    def for_warp(cls, warp: str = "similarity", residual: bool = False, **settings) -> HybridConfig:
+        """The hybrid's defaults for a warp model, with `settings` (HybridConfig fields, and DeepLKConfig fields for
+        the alignment) changed: the one place they are built. `make_tracker("hybrid", ...)` and the registry's
+        variants come here, so every way of asking for a hybrid gives the same tracker; `HybridConfig(deep=...)`
+        takes an alignment config whole, every field as given."""
+        from dataclasses import fields
+
+        hybrid_keys = {f.name for f in fields(cls)} - {"deep"}
+        deep_keys = {f.name for f in fields(DeepLKConfig)}
+        unknown = set(settings) - hybrid_keys - deep_keys
+        if unknown:
+            raise ConfigError(f"hybrid: unknown setting(s) {', '.join(sorted(unknown))}; accepted: "
+                              f"{', '.join(sorted(hybrid_keys | deep_keys))}")
+        deep = replace(hybrid_deep_config(residual=residual, warp=warp), warp=warp, residual=residual,
+                       **{k: v for k, v in settings.items() if k in deep_keys})
+        return cls(deep=deep, **{k: v for k, v in settings.items() if k in hybrid_keys})
+
     def __post_init__(self):
         check_flags(self, ("continuity", "colour_occlusion", "gate_after_alignment", "background", "reanchor",
                            "verify_reacquisition"))

@@ -1,0 +1,135 @@
+"""A closed-loop run as a ROS 2 bag in MCAP format: what robotics users open in Foxglove, rviz (through `ros2 bag
+play`) or plot with their own ROS tools. Written by `rosbags` (pure Python, no ROS install), ROS 2 Humble types.
+
+Topics, every message stamped with the simulation time of its step (`StepRecord.time`):
+
+| topic | type | what |
+|---|---|---|
+| `/camera/image/compressed` | sensor_msgs/CompressedImage | the camera's frame (JPEG), frame `camera_optical` |
+| `/camera/camera_info` | sensor_msgs/CameraInfo | K and the image size (plumb-bob model, no distortion: the renderer's pinhole) |
+| `/joint_states` | sensor_msgs/JointState | the arm's joint angles and velocities (none for a hand-held camera) |
+| `/tf` | tf2_msgs/TFMessage | world → camera_optical (OpenCV axes: x right, y down, z forward) |
+| `/tf_static` | tf2_msgs/TFMessage | world → target (the target's centre; x along its top edge, y down its left edge) |
+| `/cmd_twist` | geometry_msgs/TwistStamped | the commanded camera twist, in camera_optical |
+| `/corners/tracked`, `/corners/true`, `/corners/desired` | geometry_msgs/PolygonStamped | the four corners in image pixels (x, y, 0), frame `camera_image` |
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from hvs_sim.camera_model import encode_jpeg
+
+WORLD, CAMERA, TARGET, IMAGE = "world", "camera_optical", "target", "camera_image"
+JPEG_QUALITY = 90
+TOPICS = {
+    "/camera/image/compressed": "sensor_msgs/msg/CompressedImage",
+    "/camera/camera_info": "sensor_msgs/msg/CameraInfo",
+    "/joint_states": "sensor_msgs/msg/JointState",
+    "/tf": "tf2_msgs/msg/TFMessage",
+    "/tf_static": "tf2_msgs/msg/TFMessage",
+    "/cmd_twist": "geometry_msgs/msg/TwistStamped",
+    "/corners/tracked": "geometry_msgs/msg/PolygonStamped",
+    "/corners/true": "geometry_msgs/msg/PolygonStamped",
+    "/corners/desired": "geometry_msgs/msg/PolygonStamped",
+}
+
+
+def target_frame(corners_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(R, t) of the target in the world from its four corners (top-left, top-right, bottom-right, bottom-left)."""
+    c = np.asarray(corners_world, float)
+    x = c[1] - c[0]
+    x /= np.linalg.norm(x)
+    y = c[3] - c[0]
+    y -= x * (x @ y)
+    y /= np.linalg.norm(y)
+    return np.column_stack([x, y, np.cross(x, y)]), c.mean(axis=0)
+
+
+class BagRecorder:
+    """Writes a run's steps into a new bag folder `path` (rosbags refuses an existing one). `close()` finishes the
+    bag's index and metadata; a bag not closed is not readable, so callers write it under a temporary name."""
+
+    def __init__(self, path: Path, K: np.ndarray, width: int, height: int, joint_names=(),
+                 target: tuple[np.ndarray, np.ndarray] | None = None):
+        from rosbags.rosbag2 import StoragePlugin, Writer
+        from rosbags.typesys import Stores, get_typestore
+
+        self.store = get_typestore(Stores.ROS2_HUMBLE)
+        self.t = self.store.types
+        self.K, self.size, self.joint_names = np.asarray(K, float), (int(width), int(height)), list(joint_names)
+        self.target = target
+        self.writer = Writer(Path(path), version=8, storage_plugin=StoragePlugin.MCAP)
+        self.writer.open()
+        self.conn = {topic: self.writer.add_connection(topic, msgtype, typestore=self.store)
+                     for topic, msgtype in TOPICS.items()}
+        self.count = dict.fromkeys(TOPICS, 0)
+
+    def _write(self, topic: str, msg, ns: int) -> None:
+        self.writer.write(self.conn[topic], ns, self.store.serialize_cdr(msg, TOPICS[topic]))
+        self.count[topic] += 1
+
+    def _header(self, seconds: float, frame: str):
+        ns = round(seconds * 1e9)
+        stamp = self.t["builtin_interfaces/msg/Time"](sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+        return self.t["std_msgs/msg/Header"](stamp=stamp, frame_id=frame), ns
+
+    def _transform(self, header, child: str, R: np.ndarray, t: np.ndarray):
+        from scipy.spatial.transform import Rotation
+
+        x, y, z, w = Rotation.from_matrix(R).as_quat()
+        tr = self.t["geometry_msgs/msg/Transform"](
+            translation=self.t["geometry_msgs/msg/Vector3"](x=float(t[0]), y=float(t[1]), z=float(t[2])),
+            rotation=self.t["geometry_msgs/msg/Quaternion"](x=float(x), y=float(y), z=float(z), w=float(w)))
+        return self.t["geometry_msgs/msg/TransformStamped"](header=header, child_frame_id=child, transform=tr)
+
+    def _polygon(self, header, corners: np.ndarray):
+        pts = [self.t["geometry_msgs/msg/Point32"](x=float(u), y=float(v), z=0.0)
+               for u, v in np.nan_to_num(np.asarray(corners, float), nan=-1.0)]  # NaN (no estimate): off-image
+        return self.t["geometry_msgs/msg/PolygonStamped"](header=header, polygon=self.t["geometry_msgs/msg/Polygon"](
+            points=pts))
+
+    def _camera_info(self, header):
+        w, h = self.size
+        K = self.K
+        P = np.zeros((3, 4))
+        P[:, :3] = K
+        roi = self.t["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
+        return self.t["sensor_msgs/msg/CameraInfo"](
+            header=header, height=h, width=w, distortion_model="plumb_bob", d=np.zeros(5), k=K.ravel().copy(),
+            r=np.eye(3).ravel(), p=P.ravel(), binning_x=0, binning_y=0, roi=roi)
+
+    def log_step(self, r) -> None:
+        """One StepRecord (its frame, when the loop kept it)."""
+        t = self.t
+        cam_header, ns = self._header(r.time, CAMERA)
+        if self.count["/tf_static"] == 0 and self.target is not None:
+            world, _ = self._header(r.time, WORLD)
+            self._write("/tf_static", t["tf2_msgs/msg/TFMessage"](transforms=[self._transform(world, TARGET,
+                                                                                               *self.target)]), ns)
+        if r.frame is not None:
+            data = np.frombuffer(encode_jpeg(r.frame, JPEG_QUALITY).tobytes(), np.uint8)
+            self._write("/camera/image/compressed",
+                        t["sensor_msgs/msg/CompressedImage"](header=cam_header, format="jpeg", data=data), ns)
+        self._write("/camera/camera_info", self._camera_info(cam_header), ns)
+        if self.joint_names:
+            joints, _ = self._header(r.time, "")
+            self._write("/joint_states", t["sensor_msgs/msg/JointState"](
+                header=joints, name=self.joint_names, position=np.asarray(r.q, float),
+                velocity=np.asarray(r.qdot, float), effort=np.zeros(0)), ns)
+        world, _ = self._header(r.time, WORLD)
+        self._write("/tf", t["tf2_msgs/msg/TFMessage"](transforms=[self._transform(world, CAMERA, r.camera.R,
+                                                                                   r.camera.t)]), ns)
+        v = np.nan_to_num(np.asarray(r.twist, float))
+        twist = t["geometry_msgs/msg/Twist"](linear=t["geometry_msgs/msg/Vector3"](x=v[0], y=v[1], z=v[2]),
+                                             angular=t["geometry_msgs/msg/Vector3"](x=v[3], y=v[4], z=v[5]))
+        self._write("/cmd_twist", t["geometry_msgs/msg/TwistStamped"](header=cam_header, twist=twist), ns)
+        image, _ = self._header(r.time, IMAGE)
+        for topic, corners in (("/corners/tracked", r.features), ("/corners/true", r.gt_features),
+                               ("/corners/desired", r.desired)):
+            self._write(topic, self._polygon(image, corners), ns)
+
+    def close(self) -> None:
+        self.writer.close()

@@ -1,0 +1,70 @@
+"""`run --mcap`: a run as a ROS 2 bag (MCAP) that ROS tools read (hvs_sim/viz/rosbag.py), read back with rosbags."""
+
+import numpy as np
+import pytest
+
+from hvs_sim.loop import LoopConfig
+from hvs_sim.runner import run_episode
+from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+from hvs_sim.viz.rosbag import TOPICS
+
+SMALL = CameraConfig(width=160, height=120)
+STEPS = 6
+
+
+@pytest.fixture(scope="module")
+def bag(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bag") / "run_bag"
+    _, records = run_episode(make_scenario("walk_by", mount="arm", camera=SMALL), "ground_truth",
+                             LoopConfig(steps=STEPS, keep_frames=True), mcap=str(out), progress=False,
+                             keep_records=True)
+    from rosbags.highlevel import AnyReader
+
+    messages: dict[str, list] = {}
+    with AnyReader([out]) as reader:
+        types = {c.topic: c.msgtype for c in reader.connections}
+        for conn, ns, raw in reader.messages():
+            messages.setdefault(conn.topic, []).append((ns, reader.deserialize(raw, conn.msgtype)))
+    return out, records, types, messages
+
+
+def test_every_topic_with_its_type_and_one_message_a_step(bag):
+    out, records, types, messages = bag
+    assert (out / "metadata.yaml").is_file() and list(out.glob("*.mcap"))
+    assert types == TOPICS
+    for topic in TOPICS:
+        assert len(messages[topic]) == (1 if topic == "/tf_static" else STEPS), topic
+    stamps = [ns for ns, _ in messages["/cmd_twist"]]
+    assert stamps == [round(r.time * 1e9) for r in records]  # the simulation clock
+
+
+def test_the_values_are_the_runs(bag):
+    import cv2
+
+    _, records, _, messages = bag
+    info = messages["/camera/camera_info"][0][1]
+    assert (info.width, info.height) == (160, 120) and info.k[0] > 0 and info.k[2] == pytest.approx(79.5, abs=1)
+    for (_, twist), r in zip(messages["/cmd_twist"], records, strict=True):
+        got = [twist.twist.linear.x, twist.twist.linear.y, twist.twist.linear.z,
+               twist.twist.angular.x, twist.twist.angular.y, twist.twist.angular.z]
+        assert np.allclose(got, r.twist)
+    for (_, tf), r in zip(messages["/tf"], records, strict=True):
+        tr = tf.transforms[0]
+        assert (tf.transforms[0].header.frame_id, tr.child_frame_id) == ("world", "camera_optical")
+        assert np.allclose([tr.transform.translation.x, tr.transform.translation.y, tr.transform.translation.z],
+                           r.camera.t)
+    for (_, poly), r in zip(messages["/corners/true"], records, strict=True):
+        assert np.allclose([[p.x, p.y] for p in poly.polygon.points], r.gt_features, atol=1e-4)
+    joints = messages["/joint_states"][-1][1]
+    assert len(joints.name) == len(records[-1].q) and np.allclose(joints.position, records[-1].q)
+    jpeg = messages["/camera/image/compressed"][0][1]
+    frame = cv2.imdecode(np.asarray(jpeg.data, np.uint8), cv2.IMREAD_COLOR)
+    assert jpeg.format == "jpeg" and frame.shape == (120, 160, 3)
+
+
+def test_cli_refuses_an_existing_bag_folder(tmp_path, capsys):
+    from hvs_sim.cli import main
+
+    (tmp_path / "bag").mkdir()
+    assert main(["run", "--steps", "2", "--mcap", str(tmp_path / "bag")]) == 2
+    assert "a ROS 2 bag is a new folder" in capsys.readouterr().err
