@@ -1,5 +1,5 @@
 """How well an image can be located by a template tracker: one measure that the scene's texture
-sets (scene/textures.py) and the trackers' init check (tracking/trackability.py) both use."""
+sets (scene/textures/) and the trackers' init check (tracking/trackability.py) both use."""
 
 from __future__ import annotations
 

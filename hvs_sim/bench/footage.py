@@ -2,7 +2,7 @@
 a still scene, and a scene cut to a shot without the target.
 
 Both are built only from this project's own image sources (procedural textures and the scikit-learn / PyWavelets
-photos of scene/textures.py; never scikit-image's or matplotlib's), with exact ground truth:
+photos of scene/textures/; never scikit-image's or matplotlib's), with exact ground truth:
 - `moving_object`: a still background (a photo or texture) and a target picture (another source) pasted at a
   sub-pixel position that slides `speed_px` a frame along a seeded heading, turning near the frame's border, with
   sensor noise. The target's centre is known exactly at every frame.

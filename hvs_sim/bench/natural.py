@@ -7,7 +7,7 @@ sources this project may use: the scikit-learn sample photos (china, flower), th
 (aero, ascent) and the procedural textures of `hvs_sim.scene.textures`; bodies are drawn from the
 procedural fabrics of `hvs_sim.scene.people`. scikit-image's and matplotlib's sample photographs are
 the held-out set's kind of data and must never be imported here; nor is `pywt.data.camera`, which is
-scikit-image's cameraman (see scene/textures.py).
+scikit-image's cameraman (see scene/textures/__init__.py).
 
 A sequence: a planar picture seen through a camera whose picture-to-image homography H_t drifts and
 trembles like a phone in the hand (slow drift of a few px per frame, a few degrees of roll, ±3 %

@@ -9,7 +9,7 @@ from dm_control import mjcf
 
 from hvs_sim.errors import ConfigError
 from hvs_sim.scene.flag_art import FLAG_NAMES, flag_path
-from hvs_sim.scene.people import OCCLUDER_GROUP, Person  # noqa: F401  (people live in people.py)
+from hvs_sim.scene.people import OCCLUDER_GROUP, Person  # noqa: F401  (people live in scene/people/)
 
 
 class FlagWall:
