@@ -664,7 +664,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "corners on six DOF)")
     p.add_argument("--imagery", default="sim", choices=("sim", "natural"),
                    help="track only: sim = rendered scenes (default); natural = photos and procedural pictures moved "
-                        "like a hand-held phone, with a drawn person (hvs_sim/bench/natural.py)")
+                        "like a hand-held phone, with a drawn person (hvs_sim/bench/natural/)")
     p.add_argument("--scenarios", nargs="+", default=None,
                    metavar="NAME", help=f"scenarios: {', '.join(SCENARIO_NAMES)} (default: clear walk_by pause partial "
                    "two_people for track, clear walk_by pause for servo); with --imagery natural the kinds: clear walk_by pause "

@@ -1,1 +1,1 @@
-"""Benchmarks: tracking accuracy/speed on rendered sequences and on natural imagery (bench/natural.py), and servo convergence."""
+"""Benchmarks: tracking accuracy/speed on rendered sequences and on natural imagery (bench/natural/), and servo convergence."""

@@ -4,7 +4,7 @@ Residual regressor: rendered hand-held views of every flag and every procedural 
 (wood, marble, brick, fur, foliage, posters, …), degraded as a real camera would (augment.py:
 occlusion, blur, exposure, shot/read noise, JPEG), aligned by the plain feature LK from a perturbed
 start; label = ground-truth warp − LK warp (ρ-scaled). Photographs are left out on purpose: the
-real-imagery benchmark (bench/natural.py) measures the regressor on photos it never saw, and
+real-imagery benchmark (bench/natural/) measures the regressor on photos it never saw, and
 scikit-image's and matplotlib's sample photos are reserved for an independent evaluation.
 GRU: image tracks of the target centre under hand-held shake and under IBVS arm motion, from
 projection alone (no rendering needed).
