@@ -1,4 +1,4 @@
-"""What the init check's trackability predicts: many ROIs (random places and sizes, textured or not) on the natural
+"""What the init check's trackability predicts: many ROIs (random places and sizes; on each sequence the least textured of 60 drawn and some at random) on the natural
 benchmark's hand-held `clear` sequences, each tracked by the hybrid with every template accepted
 (`allow_untrackable=True`), binned by the template's weakest-direction texture (texture_measure.structure, noise
 taken out) and by the verdict tracking/trackability.py gives it (ok / weak / flat / one direction).
@@ -29,6 +29,8 @@ from hvs_sim.tracking.trackability import EDGE_RATIO, FLAT_SIGNAL, MIN_TRACKABIL
 
 FRAMES = 60
 ROIS_PER_SEQUENCE = 8
+CANDIDATES = 60  # random ROIs drawn per sequence; the LEAST least textured are always studied, the rest at random
+LEAST = 4
 BINS = (0.0, 1e-7, 1e-6, MIN_TRACKABILITY, 2e-5, 1e-4, np.inf)  # weakest-direction texture, noise taken out
 
 
@@ -61,10 +63,15 @@ def main() -> int:
         seq = make_natural_sequence(source, "clear", seed, n_frames=FRAMES, camera="phone_handheld")
         rng = np.random.default_rng([seed, len(rows)])
         h_img, w_img = seq.frames.shape[1:3]
-        for _ in range(ROIS_PER_SEQUENCE):
+        candidates = []
+        for _ in range(CANDIDATES):
             w = int(rng.integers(48, 161))
             h = round(w * rng.uniform(0.6, 1.0))
             x, y = int(rng.integers(40, w_img - w - 40)), int(rng.integers(40, h_img - h - 40))
+            candidates.append((structure(seq.frames[0][y:y + h, x:x + w])[0], (x, y, w, h)))
+        candidates.sort(key=lambda c: c[0])  # the least textured first: the low bins are what the study is about
+        rest = [candidates[k] for k in rng.permutation(np.arange(LEAST, len(candidates)))[:ROIS_PER_SEQUENCE - LEAST]]
+        for _, (x, y, w, h) in candidates[:LEAST] + rest:
             tracker = make_tracker("hybrid", allow_untrackable=True)
             tracker.init(seq.frames[0], (x, y, w, h))
             weakest, strongest = structure(tracker.aligner.template)
