@@ -116,3 +116,23 @@ def test_a_moving_target_leaves_its_track_only_for_a_unique_match(moving):
     look_alike, unique = SimpleNamespace(score=0.9, second=0.88), SimpleNamespace(score=0.9, second=0.5)
     assert tracker._verified(here, look_alike)
     assert not tracker._verified(far, look_alike) and tracker._verified(far, unique)
+
+
+def test_a_full_view_occluder_read_as_a_cut_is_recovered_when_the_view_returns():
+    """Something textured filling the whole view reads as a cut (`lost`); when the old view comes back, the aligned
+    keyframes find it again and the hidden target's estimate goes on from there instead of staying lost."""
+    case, other = scene_cut(1, cut_at=60, n_frames=60), scene_cut(3, cut_at=60, n_frames=60)
+    _, _, w, h = case.roi
+    tracker = make_tracker("hybrid")
+    tracker.init(case.frames[0], case.roi)
+    for f in case.frames[1:20]:
+        assert tracker.update(f).mode == "align"
+    assert [str(tracker.update(f).mode) for f in other.frames[20:30]] == ["lost"] * 10  # another picture fills the view
+    back = []
+    for k in range(30, 40):  # the old view again, the target still covered
+        f = case.frames[k].copy()
+        cx, cy = case.centres[k]
+        cv2.rectangle(f, (int(cx - w), int(cy - h)), (int(cx + w), int(cy + h)), (128, 128, 128), -1)
+        t = tracker.update(f)
+        back.append((str(t.mode), float(np.hypot(*(t.center - case.centres[k])))))
+    assert back[-1][0] == "predict" and max(e for m, e in back if m == "predict") <= 2.0, back

@@ -82,11 +82,14 @@ HYBRID_LK_HOMOGRAPHY = replace(HYBRID_LK, iterations=(15, 3))
 HYBRID_MARGIN = 5
 
 
-def _thumb(work: np.ndarray) -> np.ndarray:
-    """A small zero-mean, unit-norm copy of the working image: two frames of one shot correlate on it, a cut does not."""
+def _thumb(work: np.ndarray) -> np.ndarray | None:
+    """A small zero-mean, unit-norm copy of the working image: two frames of one shot correlate on it, a cut does not.
+    None for a frame without content to compare (a body or a hand filling the view, the lens covered): that is an
+    occlusion, not a cut."""
     t = cv2.resize(np.asarray(work, np.float32), CUT_THUMB, interpolation=cv2.INTER_AREA).ravel()
     t = t - t.mean()
-    return t / max(float(np.linalg.norm(t)), 1e-9)
+    norm = float(np.linalg.norm(t))
+    return None if norm < CUT_MIN_CONTRAST * np.sqrt(t.size) else t / norm
 
 
 def hybrid_deep_config(residual: bool = False, warp: str = "similarity") -> DeepLKConfig:
@@ -101,6 +104,7 @@ def hybrid_deep_config(residual: bool = False, warp: str = "similarity") -> Deep
 
 TARGET_MOTIONS = ("static", "moving", "auto")  # HybridConfig.target_motion
 CUT_THUMB = (32, 24)  # the thumbnail two frames are compared on for a scene cut (w, h)
+CUT_MIN_CONTRAST = 2.0 / 255  # a thumbnail with less RMS contrast (intensity in [0, 1]) has nothing to compare
 
 CONFIDENCE_HALF_LIFE = 30  # frames (1 s at 30 Hz) since the last alignment over which an unaligned pose's confidence halves
 PREDICTED_CONFIDENCE = 0.5  # a predictor's guess, relative to a measurement of the scene's motion
@@ -358,6 +362,12 @@ class HybridTracker(Tracker):
         """The first motion source with a proposal moves the estimate (module docstring); after a scene cut, or too
         long without an alignment, the estimate is lost until the target is aligned again."""
         st = self.state
+        if st.after_cut and not cut:  # the view may have come back (a full-view occluder, not a cut): only an
+            for source in self.sources:  # absolute measurement against aligned keyframes can say so
+                proposal = source.propose(work, st) if isinstance(source, KeyframeAnchorSource) else None
+                if proposal is not None:
+                    st.measured(work, proposal, self.sources)
+                    return Estimate(st.A, proposal.mode, occ, m.score, self._unaligned_confidence(proposal.kind))
         if cut or st.after_cut or st.since_aligned >= self.hconfig.max_unaligned_frames:
             st.lost(work, self.sources, cut=cut)
             return Estimate(st.A, Mode.LOST, occ, m.score, 0.0)

@@ -212,9 +212,10 @@ class HybridState:
     thumb: np.ndarray | None = None  # the last frame's thumbnail (HybridTracker's cut test)
     after_cut: bool = False  # a scene cut was seen and the target not aligned since: lost
 
-    def saw(self, thumb: np.ndarray) -> float:
-        """This frame's thumbnail replaces the last one; returns how the two correlate (1: one shot, ~0: a cut)."""
-        ncc = 1.0 if self.thumb is None else float(thumb @ self.thumb)
+    def saw(self, thumb: np.ndarray | None) -> float:
+        """This frame's thumbnail replaces the last one; returns how the two correlate (1: one shot, ~0: a cut; 1 when
+        either frame had nothing to compare)."""
+        ncc = 1.0 if self.thumb is None or thumb is None else float(thumb @ self.thumb)
         self.thumb = thumb
         return ncc
 
@@ -240,6 +241,7 @@ class HybridState:
     def measured(self, work: np.ndarray, proposal: Proposal, sources: list[MotionSource]) -> None:
         self.A = proposal.A
         self.predict_run = 0
+        self.after_cut = self.after_cut and proposal.kind != Kind.ABSOLUTE  # the old view, found again
         self.since_aligned += 1
         if proposal.kind == Kind.ABSOLUTE:  # the chain goes on from here
             self.drift_run = 0
