@@ -46,7 +46,7 @@ def check_not_forked_after_rendering() -> None:
     """A process forked from one that had rendered inherits its GL state half-initialised, and
     creating a new context there hangs for ever (seen with gymnasium's AsyncVectorEnv and the
     default fork start method). Refuse with a clear error instead."""
-    if _RENDERED_IN is not None and _RENDERED_IN != os.getpid():
+    if _RENDERED_IN is not None and os.getpid() != _RENDERED_IN:
         raise RenderError(f"this process was forked from process {_RENDERED_IN} after it had rendered with MuJoCo; "
                           "a GL context cannot be created here. Start workers with the 'spawn' method, e.g. "
                           "gymnasium.vector.AsyncVectorEnv(fns, context='spawn') or "

@@ -141,7 +141,7 @@ def test_pause_holds_full_occlusion_for_a_second():
 def test_partial_hovers_between_25_and_70_percent():
     sc, occ = occlusion_profile("partial")
     hovering = occ[int(1.5 * sc.fps):]
-    assert 0.25 <= hovering.min() and hovering.max() <= 0.70
+    assert hovering.min() >= 0.25 and hovering.max() <= 0.70
     assert hovering.max() - hovering.min() > 0.2
 
 
