@@ -81,11 +81,15 @@ def temporary_beside(path) -> Path:
 
 
 def settle(tmp: Path, final, keep: bool) -> None:
-    """A temporary written beside its target (temporary_beside), renamed into place when `keep`, else removed."""
+    """A temporary written beside its target (temporary_beside; a file, or a folder such as a ROS 2 bag), renamed
+    into place when `keep`, else removed."""
     import os
+    import shutil
 
     if keep:
         os.replace(tmp, final)
+    elif Path(tmp).is_dir() and not Path(tmp).is_symlink():
+        shutil.rmtree(tmp, ignore_errors=True)
     else:
         Path(tmp).unlink(missing_ok=True)
 

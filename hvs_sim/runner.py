@@ -117,7 +117,7 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
                 settle(rrd_tmp, rrd, keep and logger.error is None)  # an unfinished recording is removed
         if bag is not None:
             bag.close()
-            _settle_folder(bag_tmp, Path(mcap), keep)
+            settle(bag_tmp, Path(mcap), keep)
         if json_path and keep:
             write_atomic(json_path, json.dumps(_summary(scenario, tracker, stats, logger, interrupted), indent=2))
     summary = _summary(scenario, tracker, stats, logger, False)
@@ -127,16 +127,6 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
         summary["figures"] = [str(p) for p in run_figures(picks.records(), stats.series(), summary, Path(figures),
                                                            config.converge_px)]
     return summary, records
-
-
-def _settle_folder(tmp: Path, final: Path, keep: bool) -> None:
-    """A bag written into a temporary folder beside its target: renamed into place, or removed."""
-    import shutil
-
-    if keep:
-        tmp.rename(final)
-    else:
-        shutil.rmtree(tmp, ignore_errors=True)
 
 
 class FramePicks:

@@ -270,14 +270,18 @@ class RerunTrackLog:
 
 
 class TrackOutputs:
-    """track.csv, annotated.mp4 and the optional .rrd, written one frame at a time so memory stays flat, each under a
-    temporary name beside its target and renamed into place when closed: a run that fails leaves no partial file
-    and removes nothing it did not create; an earlier result stays until the new one is complete."""
+    """track.csv, annotated.mp4 and the optional .rrd and ROS 2 bag (`mcap`, a folder), written one frame at a time
+    so memory stays flat, each under a temporary name beside its target and renamed into place when closed: a run
+    that fails leaves no partial file and removes nothing it did not create; an earlier result stays until the new
+    one is complete."""
 
-    def __init__(self, out: Path, size: tuple[int, int], fps: float, rrd: Path | None = None):
-        self.final = [p for p in (out / CSV_NAME, out / VIDEO_NAME, rrd) if p is not None]
+    def __init__(self, out: Path, size: tuple[int, int], fps: float, rrd: Path | None = None,
+                 mcap: Path | None = None):
+        self.final = [p for p in (out / CSV_NAME, out / VIDEO_NAME, rrd, mcap) if p is not None]
         self.csv_path, self.video_path = temporary_beside(out / CSV_NAME), temporary_beside(out / VIDEO_NAME)
         self.rrd = None if rrd is None else temporary_beside(rrd)
+        self.mcap = None if mcap is None else temporary_beside(mcap)
+        self.bag = None
         self._open = ExitStack()  # closes whatever was opened, in reverse order
         try:
             self._start(size, fps)
@@ -293,6 +297,11 @@ class TrackOutputs:
         self.rerun = RerunTrackLog(self.rrd, fps, self.final[-1]) if self.rrd else None
         if self.rerun:
             self._open.callback(self.rerun.close)
+        if self.mcap:
+            from hvs_sim.viz.rosbag import FootageBag
+
+            self.bag = FootageBag(self.mcap, fps)
+            self._open.callback(self.bag.close)
         self.csv = csv.writer(self._open.enter_context(self.csv_path.open("w", newline="")))
         self.csv.writerow(CSV_COLUMNS)
 
@@ -301,9 +310,11 @@ class TrackOutputs:
         self.video.write(cv2.cvtColor(annotate(frame, index, track), cv2.COLOR_BGR2RGB))
         if self.rerun:
             self.rerun.log(index, frame, track)
+        if self.bag:
+            self.bag.log(index, frame, track.corners, track.mode)
 
     def _temporaries(self) -> list[Path]:
-        return [p for p in (self.csv_path, self.video_path, self.rrd) if p is not None]
+        return [p for p in (self.csv_path, self.video_path, self.rrd, self.mcap) if p is not None]
 
     def close(self) -> None:
         """Close the files and rename each into place (the frames written so far, also after Ctrl-C)."""
@@ -388,23 +399,26 @@ def target_settings(tracker: str, target: str | None, settings: dict) -> dict:
 
 def track_footage(path, roi, tracker: str = DEFAULT_TRACKER, out="out/track", rrd=None,
                   progress: bool = True, settings: dict | None = None, overwrite: bool = False,
-                  target: str | None = None) -> TrackResult:
+                  target: str | None = None, mcap=None) -> TrackResult:
     """Check every input, then stream the frames through the tracker into the outputs.
     settings: the tracker's config fields (make_tracker keywords), e.g. other weights. An --out holding anything
     is refused unless `overwrite` (then its earlier track.csv and annotated.mp4 are replaced when this run ends).
-    target: static | moving | auto, the hybrid's motion prior (target_settings; None: auto for the hybrids)."""
+    target: static | moving | auto, the hybrid's motion prior (target_settings; None: auto for the hybrids).
+    mcap: a new folder for a ROS 2 bag of the frames, the tracked corners and the mode."""
     tracker = check_any_tracker(tracker)
     settings = target_settings(tracker, target, dict(settings or {}))
     roi = parse_roi(roi) if isinstance(roi, str) else roi
+    if mcap is not None and Path(mcap).exists():
+        raise ConfigError(f"--mcap {mcap} exists: a ROS 2 bag is a new folder; give a path that does not exist")
     check_apart([path], {"--out's track.csv": Path(out) / CSV_NAME, "--out's annotated.mp4": Path(out) / VIDEO_NAME,
-                         "--rrd": None if rrd is None else Path(rrd)})
+                         "--rrd": None if rrd is None else Path(rrd), "--mcap": None if mcap is None else Path(mcap)})
     source = open_frames(path)
     try:
         roi = check_roi(roi, source.first.shape[:2])
         out = fresh_out_dir(out, overwrite, (CSV_NAME, VIDEO_NAME), clear=False)
         rrd = prepare_rrd(rrd)
         method = make_any_tracker(tracker, **settings)
-        outputs = TrackOutputs(out, source.size, source.fps, rrd)
+        outputs = TrackOutputs(out, source.size, source.fps, rrd, None if mcap is None else Path(mcap))
         result = TrackResult(tracker, outputs.paths, expected=source.count)
         bar = tqdm(total=source.count, unit="frame", desc=f"track/{tracker}", disable=not progress)
         try:
@@ -476,6 +490,8 @@ def add_track_parser(sub) -> None:
     p.add_argument("--out", default="out/track", metavar="DIR",
                    help="folder for track.csv and annotated.mp4, created when missing (default out/track)")
     p.add_argument("--rrd", default=None, metavar="FILE", help="also save a rerun recording here")
+    p.add_argument("--mcap", default=None, metavar="DIR", help="also write a ROS 2 bag (MCAP) into this new folder: "
+                   "the frames, the tracked corners and the mode")
     p.add_argument("--target", choices=("static", "moving", "auto"), default=None,
                    help="what the target does, for the hybrid trackers: static (fixed in the scene: the surroundings' "
                         "motion is its motion), moving (it moves on its own), or auto (default: chosen from the first "
@@ -489,7 +505,8 @@ def add_track_parser(sub) -> None:
 def cmd_track(args) -> int:
     try:
         result = track_footage(args.path, args.roi, args.tracker, args.out, args.rrd,
-                               settings=parse_settings(args.set), overwrite=args.overwrite, target=args.target)
+                               settings=parse_settings(args.set), overwrite=args.overwrite, target=args.target,
+                               mcap=args.mcap)
     except KeyboardInterrupt:  # before the first frame was tracked: nothing was written
         print("hvs-sim: interrupted (Ctrl-C) before tracking started; nothing written", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -68,3 +68,35 @@ def test_cli_refuses_an_existing_bag_folder(tmp_path, capsys):
     (tmp_path / "bag").mkdir()
     assert main(["run", "--steps", "2", "--mcap", str(tmp_path / "bag")]) == 2
     assert "a ROS 2 bag is a new folder" in capsys.readouterr().err
+
+
+def test_track_writes_the_frames_and_the_tracked_corners_as_a_bag(tmp_path):
+    import cv2
+    from rosbags.highlevel import AnyReader
+
+    from hvs_sim.cli import main
+    from hvs_sim.viz.rosbag import TRACK_TOPICS
+
+    folder = tmp_path / "clip"
+    folder.mkdir()
+    rng = np.random.default_rng(0)
+    img = cv2.GaussianBlur(rng.integers(0, 255, (120, 160, 3), np.uint8), (0, 0), 1.5)
+    for k in range(5):
+        cv2.imwrite(str(folder / f"f{k}.png"), np.roll(img, k, axis=1))
+    bag = tmp_path / "track_bag"
+    assert main(["track", str(folder), "--roi", "50,40,48,40", "--tracker", "ecc", "--out", str(tmp_path / "out"),
+                 "--mcap", str(bag)]) == 0
+    with AnyReader([bag]) as reader:
+        assert {c.topic: c.msgtype for c in reader.connections} == TRACK_TOPICS
+        got = {}
+        for conn, ns, raw in reader.messages():
+            got.setdefault(conn.topic, []).append((ns, reader.deserialize(raw, conn.msgtype)))
+    assert all(len(v) == 5 for v in got.values())
+    rows = (tmp_path / "out" / "track.csv").read_text().splitlines()[1:]
+    for (ns, poly), row in zip(got["/corners/tracked"], rows, strict=True):
+        frame, cx, cy = row.split(",")[:3]
+        assert ns == round(int(frame) / 30 * 1e9)  # a folder plays at 30 fps
+        centre = np.mean([[p.x, p.y] for p in poly.polygon.points], axis=0)
+        assert np.allclose(centre, [float(cx), float(cy)], atol=0.05)  # the corners of the CSV's centre
+    assert got["/track/mode"][0][1].data == "init"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["clip", "out", "track_bag"]  # no temporary left

@@ -48,27 +48,33 @@ def target_frame(corners_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.column_stack([x, y, np.cross(x, y)]), c.mean(axis=0)
 
 
-class BagRecorder:
-    """Writes a run's steps into a new bag folder `path` (rosbags refuses an existing one). `close()` finishes the
-    bag's index and metadata; a bag not closed is not readable, so callers write it under a temporary name."""
+# `hvs-sim track --mcap`: footage has no K, joints or twist; the tracker's mode as text
+TRACK_TOPICS = {
+    "/camera/image/compressed": "sensor_msgs/msg/CompressedImage",
+    "/corners/tracked": "geometry_msgs/msg/PolygonStamped",
+    "/track/mode": "std_msgs/msg/String",
+}
 
-    def __init__(self, path: Path, K: np.ndarray, width: int, height: int, joint_names=(),
-                 target: tuple[np.ndarray, np.ndarray] | None = None):
+
+class _Bag:
+    """A new bag folder `path` (rosbags refuses an existing one) with one connection per topic. `close()` finishes
+    the bag's index and metadata; a bag not closed is not readable, so callers write it under a temporary name."""
+
+    def __init__(self, path: Path, topics: dict[str, str]):
         from rosbags.rosbag2 import StoragePlugin, Writer
         from rosbags.typesys import Stores, get_typestore
 
         self.store = get_typestore(Stores.ROS2_HUMBLE)
         self.t = self.store.types
-        self.K, self.size, self.joint_names = np.asarray(K, float), (int(width), int(height)), list(joint_names)
-        self.target = target
+        self.topics = topics
         self.writer = Writer(Path(path), version=8, storage_plugin=StoragePlugin.MCAP)
         self.writer.open()
         self.conn = {topic: self.writer.add_connection(topic, msgtype, typestore=self.store)
-                     for topic, msgtype in TOPICS.items()}
-        self.count = dict.fromkeys(TOPICS, 0)
+                     for topic, msgtype in topics.items()}
+        self.count = dict.fromkeys(topics, 0)
 
     def _write(self, topic: str, msg, ns: int) -> None:
-        self.writer.write(self.conn[topic], ns, self.store.serialize_cdr(msg, TOPICS[topic]))
+        self.writer.write(self.conn[topic], ns, self.store.serialize_cdr(msg, self.topics[topic]))
         self.count[topic] += 1
 
     def _header(self, seconds: float, frame: str):
@@ -91,6 +97,39 @@ class BagRecorder:
         return self.t["geometry_msgs/msg/PolygonStamped"](header=header, polygon=self.t["geometry_msgs/msg/Polygon"](
             points=pts))
 
+    def _image(self, header, ns: int, frame: np.ndarray) -> None:
+        data = np.frombuffer(encode_jpeg(frame, JPEG_QUALITY).tobytes(), np.uint8)
+        self._write("/camera/image/compressed",
+                    self.t["sensor_msgs/msg/CompressedImage"](header=header, format="jpeg", data=data), ns)
+
+    def close(self) -> None:
+        self.writer.close()
+
+
+class FootageBag(_Bag):
+    """`hvs-sim track --mcap`: each frame (JPEG), the tracked corners and the mode, stamped at frame / fps."""
+
+    def __init__(self, path: Path, fps: float):
+        super().__init__(path, TRACK_TOPICS)
+        self.fps = float(fps)
+
+    def log(self, index: int, frame: np.ndarray, corners: np.ndarray, mode: str) -> None:
+        header, ns = self._header(index / self.fps, CAMERA)
+        self._image(header, ns, frame)
+        image, _ = self._header(index / self.fps, IMAGE)
+        self._write("/corners/tracked", self._polygon(image, corners), ns)
+        self._write("/track/mode", self.t["std_msgs/msg/String"](data=str(mode)), ns)
+
+
+class BagRecorder(_Bag):
+    """`hvs-sim run --mcap`: a run's steps (module docstring)."""
+
+    def __init__(self, path: Path, K: np.ndarray, width: int, height: int, joint_names=(),
+                 target: tuple[np.ndarray, np.ndarray] | None = None):
+        super().__init__(path, TOPICS)
+        self.K, self.size, self.joint_names = np.asarray(K, float), (int(width), int(height)), list(joint_names)
+        self.target = target
+
     def _camera_info(self, header):
         w, h = self.size
         K = self.K
@@ -110,9 +149,7 @@ class BagRecorder:
             self._write("/tf_static", t["tf2_msgs/msg/TFMessage"](transforms=[self._transform(world, TARGET,
                                                                                                *self.target)]), ns)
         if r.frame is not None:
-            data = np.frombuffer(encode_jpeg(r.frame, JPEG_QUALITY).tobytes(), np.uint8)
-            self._write("/camera/image/compressed",
-                        t["sensor_msgs/msg/CompressedImage"](header=cam_header, format="jpeg", data=data), ns)
+            self._image(cam_header, ns, r.frame)
         self._write("/camera/camera_info", self._camera_info(cam_header), ns)
         if self.joint_names:
             joints, _ = self._header(r.time, "")
@@ -130,6 +167,3 @@ class BagRecorder:
         for topic, corners in (("/corners/tracked", r.features), ("/corners/true", r.gt_features),
                                ("/corners/desired", r.desired)):
             self._write(topic, self._polygon(image, corners), ns)
-
-    def close(self) -> None:
-        self.writer.close()
