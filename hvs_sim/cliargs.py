@@ -1,6 +1,6 @@
 """Command-line helpers the commands share (`hvs-sim run`, `track`, ...): the default tracker and `--set KEY=VALUE`.
 
-A module of its own so that command modules (cli.py, video.py) import it, and not each other.
+A module of its own so that command modules (the cli package, video.py) import it, and not each other.
 """
 
 from __future__ import annotations

@@ -60,6 +60,9 @@ TRACKERS: dict[str, TrackerSpec] = {
     "hybrid_unverified_reacquisition": TrackerSpec("hybrid", {"verify_reacquisition": False},
                                                    "a far global-match jump is accepted without verification",
                                                    "#f7b6d2"),
+    "hybrid_homography": TrackerSpec("hybrid", {"warp": "homography"},
+                                     "the hybrid estimating a homography (true perspective corners, what six-DOF "
+                                     "servoing uses) instead of the paper's similarity", "#17a768"),
     "hybrid_no_cut_test": TrackerSpec("hybrid", {"cut_ncc": -1.0},
                                       "no scene-cut test: the surroundings' chain is trusted across a cut",
                                       "#393b79"),

@@ -1,0 +1,285 @@
+"""`hvs-sim bench`: the tracking (sim or natural imagery) and servo benchmarks, the versioned suites, and
+`bench compare` of two servo results."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+from hvs_sim.cli.common import HelpFormatter, _given, _provenance
+from hvs_sim.errors import ConfigError
+from hvs_sim.outputs import fresh_out_dir, write_atomic
+
+
+def _check_bench_options(args) -> None:
+    """Refuse options that do not apply to the chosen benchmark, rather than ignoring them."""
+    if args.what == "servo":
+        for flag, value in (("--imagery natural", args.imagery == "natural"), ("--sources", args.sources),
+                            ("--mounts", args.mounts), ("--motion", args.motion)):
+            if value:
+                raise ConfigError(f"{flag} applies to `bench track` only (the servo benchmark's camera is on the arm)")
+        return
+    for flag, value in (("--episodes", args.episodes), ("--damping", args.damping),
+                        ("--template-from", args.template_from), ("--roi-inset", args.roi_inset),
+                        ("--goal-frames", args.goal_frames), ("--feature-filter", args.feature_filter),
+                        ("--extra-steps", args.extra_steps)):
+        if value is not None:
+            raise ConfigError(f"{flag} applies to `bench servo` only")
+    if args.imagery == "natural":
+        for flag, value in (("--mounts", args.mounts), ("--people", args.people)):
+            if value:
+                raise ConfigError(f"{flag} does not apply to --imagery natural (planar photos, a drawn person): "
+                                  "leave it out, or use --imagery sim")
+    elif args.sources or args.motion:
+        raise ConfigError(f"{'--sources' if args.sources else '--motion'} applies to --imagery natural only")
+
+
+def cmd_bench_natural(args) -> int:
+    from hvs_sim.bench.natural import (
+        DEFAULT_SEEDS,
+        NATURAL_KINDS,
+        NATURAL_SOURCES,
+        NaturalBenchConfig,
+        run_natural_bench,
+        smoke_config,
+    )
+    from hvs_sim.bench.track import METHODS
+
+    if args.smoke:  # small defaults; what the user names is honoured
+        cfg = smoke_config(tuple(args.methods or METHODS), camera=args.camera, workers=args.workers)
+        cfg = dataclasses.replace(cfg, **_given(args, ("sources", "sources"), ("scenarios", "kinds"), ("seeds", "seeds")),
+                                  motion=args.motion or cfg.motion)
+        print(f"SMOKE RUN ({', '.join(cfg.sources)}; {', '.join(cfg.kinds)}; {cfg.frames} frames): checks the pipeline, "
+              "NOT a result")
+    else:
+        cfg = NaturalBenchConfig(methods=tuple(args.methods or NaturalBenchConfig.methods),
+                                 sources=tuple(args.sources or NATURAL_SOURCES), kinds=tuple(args.scenarios or NATURAL_KINDS),
+                                 seeds=tuple(args.seeds or DEFAULT_SEEDS), camera=args.camera, workers=args.workers,
+                                 motion=args.motion or "hand")
+    summary = run_natural_bench(cfg, Path(args.out))
+    for m, a in summary["overall"].items():
+        v = summary["visible_lt_40"][m]
+        t = summary["timing"][m]
+        ratio = t["ratio_to_ecc"]
+        print(f"{m:18s} all: {a['pct_le_2px']:5.1f}% ≤2px median {a['median_px']:.2f}px | occlusion < 40 %: "
+              f"{v.get('pct_le_2px', float('nan')):5.1f}% ≤2px | {t['median_ms']:.1f} ms median"
+              + ("" if ratio is None else f" ({ratio:.2f}× ecc)"))
+    for kind, per in summary["per_kind"].items():
+        print(f"  {kind:8s} " + "  ".join(f"{m} {v['pct_le_2px']:.1f}% ≤2px {v['median_px']:.2f}px" for m, v in per.items()))
+    if args.smoke:
+        print("SMOKE RUN: the figures above check the pipeline, they are NOT a result")
+    return 0
+
+
+BENCH_OUTPUTS = ("summary.json", "table.md", "frames.csv", "*.png")  # what a benchmark writes in --out
+
+
+def cmd_bench(args) -> int:
+    if args.what == "suites":
+        from hvs_sim.bench.suites import describe
+
+        print(describe(), end="")
+        return 0
+    if args.what == "compare":
+        return cmd_bench_compare(args)
+    if args.paths:
+        raise ConfigError(f"`bench {args.what}` takes no positional folders (got {args.paths}); `bench compare A B` does")
+    if args.suite:
+        _apply_suite(args)
+    elif args.camera is None:
+        from hvs_sim.camera_model import REALISTIC_PRESET
+
+        args.camera = REALISTIC_PRESET
+    _check_bench_options(args)
+    fresh_out_dir(args.out, args.overwrite, BENCH_OUTPUTS)
+    if args.what == "track" and args.imagery == "natural":
+        status = cmd_bench_natural(args)
+    else:
+        status = _cmd_bench_sim(args)
+    path = Path(args.out) / "summary.json"
+    data = json.loads(path.read_text())
+    data["provenance"] = _provenance(args.argv)
+    write_atomic(path, json.dumps(data, indent=2))
+    print(f"results: {args.out}/ (summary.json, table.md, figures)")
+    return status
+
+
+def _apply_suite(args) -> None:
+    """--suite NAME: the suite's frozen settings; the methods named run alone (beside the reference methods in a suite
+    `with_reference`, or those alone when none is named), and any option that would change the suite's episodes is
+    refused."""
+    from hvs_sim.bench.suites import get_suite
+
+    suite = get_suite(args.suite, args.what)
+    for flag, value in (("--smoke", args.smoke), ("--scenarios", args.scenarios), ("--seeds", args.seeds),
+                        ("--episodes", args.episodes), ("--camera", args.camera), ("--people", args.people),
+                        ("--extra-steps", args.extra_steps), ("--mounts", args.mounts),
+                        ("--imagery natural", args.imagery == "natural")):
+        if value:
+            raise ConfigError(f"{flag} changes what suite {suite.name} fixes (its scenarios, seeds, camera, people "
+                              "and steps): leave it out, or run without --suite")
+    named = list(args.methods or [])
+    args.methods = list(dict.fromkeys([*suite.methods, *named] if suite.with_reference or not named else named))
+    args.scenarios, args.seeds, args.camera = list(suite.scenarios), list(suite.seeds), suite.camera
+    args.suite_obj = suite
+    if suite.kind == "track":
+        args.mounts = list(suite.mounts)
+
+
+def cmd_bench_compare(args) -> int:
+    from hvs_sim.bench.compare import compare, compare_figure, compare_table
+
+    if len(args.paths) != 2:
+        raise ConfigError(f"`bench compare` takes two result folders A B, got {len(args.paths)}: hvs-sim bench compare "
+                          "out/mine experiments/results/occlusion-v1")
+    pair = {}
+    if args.methods:
+        if len(args.methods) != 2:
+            raise ConfigError(f"`bench compare A B --methods MA MB` takes two methods, MA of A and MB of B; got "
+                              f"{len(args.methods)}")
+        pair = {"methods_a": args.methods[:1], "methods_b": args.methods[1:]}
+    result = compare(*args.paths, **pair)  # checked and computed before --out is cleared
+    out = fresh_out_dir(args.out, args.overwrite, ("compare.json", "compare.md", "compare.png"))
+    table = compare_table(result)
+    write_atomic(out / "compare.json", json.dumps(result, indent=2))
+    write_atomic(out / "compare.md", table)
+    compare_figure(result, out / "compare.png")
+    print(table, end="")
+    print(f"results: {out}/ (compare.json, compare.md, compare.png)")
+    return 0
+
+
+SMOKE_NOTE = "SMOKE RUN: checks that the pipeline runs end to end; the figures it prints are NOT a result"
+
+
+def _cmd_bench_sim(args) -> int:
+    args.people = args.people or "textured"
+    if args.what == "track":
+        from hvs_sim.bench.track import METHODS, TrackBenchConfig, run_track_bench
+
+        given = _given(args, ("methods", "methods"), ("scenarios", "scenarios"), ("mounts", "mounts"), ("seeds", "seeds"))
+        if args.smoke:  # small defaults; what the user names is honoured
+            print(SMOKE_NOTE)
+            given = {"methods": METHODS, "scenarios": ("walk_by",), "mounts": ("handheld",), "seeds": (100,), **given}
+        cfg = TrackBenchConfig(workers=args.workers, camera=args.camera, people=args.people,
+                               frames=40 if args.smoke else None, **given)
+        summary = run_track_bench(cfg, Path(args.out))
+        for m, v in summary["occlusion_scenarios"].items():
+            a = v["all"]
+            print(f"{m:18s} occlusion scenarios: {a['pct_le_1px']:5.1f}% ≤1px {a['pct_le_2px']:5.1f}% ≤2px "
+                  f"median {a['median_px']:.2f}px p95 {a['p95_px']:.1f}px | {a['median_ms']:.1f} ms median")
+        for m, v in summary.get("target_set", {}).items():
+            print(f"{m:18s} target set (hand-held walk_by, pause, partial): {v['all']['pct_le_2px']:5.1f}% ≤2px, "
+                  f"{v['visible_lt_40']['pct_le_2px']:5.1f}% of frames with occlusion < 40 % ≤2px")
+    else:
+        from hvs_sim.bench.servo import ServoBenchConfig, run_servo_bench
+
+        given = _given(args, ("methods", "trackers"), ("scenarios", "scenarios"), ("seeds", "seeds"))
+        if args.episodes is not None:
+            if args.seeds:
+                raise ConfigError("give --episodes or --seeds for the servo benchmark, not both")
+            given["episodes"] = args.episodes
+        if args.smoke:
+            print(SMOKE_NOTE)
+            given = {"trackers": ("ground_truth", "hybrid"), "scenarios": ("walk_by",), "episodes": 1, **given}
+        if args.extra_steps is not None and args.smoke:
+            raise ConfigError("--extra-steps and --smoke disagree: a smoke run has its own 30 steps; give one")
+        for opt, field in (("damping", "damping"), ("template_from", "template_from"), ("roi_inset", "roi_inset_px"),
+                           ("goal_frames", "goal_frames"), ("feature_filter", "feature_filter"),
+                           ("extra_steps", "extra_steps")):  # servo-only settings the user gave
+            if getattr(args, opt) is not None:
+                given[field] = getattr(args, opt)
+        suite = getattr(args, "suite_obj", None)
+        if suite is not None:
+            from hvs_sim.bench.suites import TILT_MAX_DEG
+
+            given.update(extra_steps=suite.extra_steps, width=suite.width, height=suite.height,
+                         tilt_deg=0.0 if suite.start == "4dof" else TILT_MAX_DEG, success_px=suite.success_px,
+                         suite=suite.name, scenarios=suite.scenarios, seeds=suite.seeds)
+        cfg = ServoBenchConfig(workers=args.workers, camera=args.camera, people=args.people,
+                               steps=30 if args.smoke else None, **given)
+        summary = run_servo_bench(cfg, Path(args.out))
+        for s, per in summary["results"].items():
+            for t, r in per.items():
+                ok, reached = r["success"]["hvs_sim"], r["reached"]
+                lo, hi = ok["ci95"]
+                print(f"{s:8s} {t:24s} success {100 * ok['rate']:5.1f}% (95% CI {100 * lo:.0f}-{100 * hi:.0f}), "
+                      f"reached {100 * reached['rate']:.0f}%, CNS {100 * r['success']['cns']['rate']:.0f}%, Felton "
+                      f"{100 * r['success']['felton']['rate']:.0f}%, ViSP {100 * r['success']['visp']['rate']:.0f}%; "
+                      f"median final {r['median_final_error_px']:.2f} px, {r['median_final_pose_error_mm']:.1f} mm")
+    if args.smoke:
+        print(SMOKE_NOTE)
+    return 0
+
+
+def add_bench_parser(sub) -> None:
+    from hvs_sim.camera_model import REALISTIC_PRESET, SENSOR_NAMES
+    from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
+    from hvs_sim.control.ibvs import GOAL_FRAMES, TEMPLATE_VIEWS, TRACKED_6DOF_DAMPING
+    from hvs_sim.scene.scenarios import PEOPLE_STYLES
+
+    p = sub.add_parser("bench", formatter_class=HelpFormatter, help="benchmarks: tracking accuracy (track) or closed-loop convergence (servo)")
+    p.add_argument("what", choices=("track", "servo", "suites", "compare"),
+                   help="track | servo: run a benchmark; suites: list the versioned suites; compare A B: two servo "
+                        "results of one suite, episode by episode")
+    p.add_argument("paths", nargs="*", metavar="FOLDER", help="compare: the two result folders A B")
+    p.add_argument("--suite", default=None, metavar="NAME",
+                   help="a versioned suite (hvs-sim bench suites): its frozen scenarios, seeds, camera and rules; the "
+                        "methods you name (default: its reference methods; quick always runs them beside yours); "
+                        "quick: a look in ~2 minutes")
+    p.add_argument("--out", default=None, help="output folder (default: out/bench_<what>)")
+    p.add_argument("--smoke", action="store_true", help="a tiny version that runs in about a minute (not a result)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace earlier results (summary.json, table.md, frames.csv, figures) in a non-empty --out")
+    p.add_argument("--workers", type=int, default=1, help="processes (episodes and sequences are independent)")
+    from hvs_sim.scene.scenarios import SCENARIO_NAMES
+    from hvs_sim.tracking import TRACKER_NAMES
+
+    p.add_argument("--methods", nargs="+", default=None, metavar="NAME",
+                   help=f"trackers to compare: {', '.join(TRACKER_NAMES)}, or outside trackers (module:callable, "
+                        "file.py:callable, registered or entry-point names); servo: TRACKER[:WARP][/CONTROLLER] or "
+                        "policy=NAME, with ground_truth, none/dvs, and outside references in braces: "
+                        "{mypkg.track:make}/{mypkg.law:make} (the hybrid_* are ablations, see "
+                        "hvs_sim/tracking/registry.py; default: the benchmark's set)")
+    p.add_argument("--damping", type=float, default=None,
+                   help=f"servo only: damped pseudo-inverse, μ = damping × σ_max(L) (IBVSConfig.damping; default: {TRACKED_6DOF_DAMPING} for "
+                        "tracked features on six DOF, else 0)")
+    p.add_argument("--template-from", default=None, choices=TEMPLATE_VIEWS,
+                   help="servo only: where the tracker's template comes from (as `run --template-from`; default: goal "
+                        "for tracked corners on six DOF, else start)")
+    p.add_argument("--extra-steps", type=int, default=None, metavar="N",
+                   help="servo only: steps each episode runs past its scenario's end (default 60)")
+    p.add_argument("--roi-inset", type=int, default=None, metavar="PX",
+                   help="servo only: cut the template this many pixels inside the target's outline (as `run "
+                        "--roi-inset`; default: 8 with a goal template, 0 with a start one)")
+    p.add_argument("--goal-frames", type=int, default=None, metavar="N",
+                   help=f"servo only: frames averaged into the goal image (as `run --goal-frames`; default {GOAL_FRAMES} with a goal "
+                        "template)")
+    p.add_argument("--feature-filter", type=float, default=None, metavar="ALPHA",
+                   help=f"servo only: α of the feature filter (as `run --feature-filter`; 0 = off; default {FEATURE_FILTER_ALPHA} for tracked "
+                        "corners on six DOF)")
+    p.add_argument("--imagery", default="sim", choices=("sim", "natural"),
+                   help="track only: sim = rendered scenes (default); natural = photos and procedural pictures moved "
+                        "like a hand-held phone, with a drawn person (hvs_sim/bench/natural/)")
+    p.add_argument("--scenarios", nargs="+", default=None,
+                   metavar="NAME", help=f"scenarios: {', '.join(SCENARIO_NAMES)} (default: clear walk_by pause partial "
+                   "two_people for track, clear walk_by pause for servo); with --imagery natural the kinds: clear walk_by pause "
+                   "partial (default all)")
+    p.add_argument("--sources", nargs="+", default=None, metavar="NAME",
+                   help="--imagery natural only: pictures (default all of hvs_sim.bench.natural.NATURAL_SOURCES)")
+    p.add_argument("--motion", default=None, choices=("hand", "tilt"),
+                   help="--imagery natural only: how the phone moves: hand (default: drift, tremor, roll, a little "
+                        "perspective) or tilt (also turned 10–13° out of the picture's plane and ±18 %% zoom)")
+    p.add_argument("--mounts", nargs="+", default=None, metavar="MOUNT",
+                   help="track only, sim imagery: handheld and/or arm (default both)")
+    p.add_argument("--seeds", nargs="+", type=int, default=None,
+                   help="sequence seeds (track; default 100 101 102, natural 500 501) or episode seeds (servo)")
+    p.add_argument("--episodes", type=int, default=None,
+                   help="servo only: episodes per scenario and tracker, seeds 200, 201, … (default 20)")
+    p.add_argument("--camera", default=None, choices=SENSOR_NAMES,
+                   help=f"camera model of every sequence/episode (default {REALISTIC_PRESET}; ideal = clean renders)")
+    p.add_argument("--people", default=None, choices=PEOPLE_STYLES,
+                   help="sim imagery: how the people look (default textured; plain = the flat figures of earlier "
+                        "benchmarks)")
+    p.set_defaults(func=cmd_bench)

@@ -1,0 +1,122 @@
+"""What the `hvs-sim` commands share: the scene options and the scenario they build (run, scene; budget reads the
+target options), provenance, the help formatter, the bench options given, and the exit codes and SIGTERM
+handling of `main`."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from hvs_sim.errors import ConfigError
+
+
+def _target_overrides(args) -> dict:
+    """The target that --target, --target-image and --target-width name, as make_scenario keywords (run, scene,
+    budget)."""
+    from hvs_sim.scene.flag_art import FLAG_NAMES
+    from hvs_sim.scene.textures import NATURAL_TEXTURES
+
+    overrides = {}
+    if args.target:
+        if args.target not in FLAG_NAMES + NATURAL_TEXTURES:
+            raise ConfigError(f"unknown target {args.target!r}; accepted: a flag ({', '.join(FLAG_NAMES)}) or a "
+                              f"natural texture ({', '.join(NATURAL_TEXTURES)}); or --target-image PATH")
+        overrides["target_flag" if args.target in FLAG_NAMES else "target_texture"] = args.target
+    if args.target and args.target_image:
+        raise ConfigError("give --target NAME or --target-image PATH, not both")
+    if args.target or args.target_image:  # what the user names replaces the preset's target, whatever kind it was
+        overrides.setdefault("target_texture", None)
+        overrides["target_image"] = args.target_image
+    if args.target_width is not None:
+        overrides["target_width"] = args.target_width
+    return overrides
+
+
+def _scenario_from_args(args):
+    from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+
+    overrides = {"camera": CameraConfig(width=args.width, height=args.height, fovy=args.fovy, sensor=args.camera,
+                                        multisample=args.multisample), **_target_overrides(args)}
+    if args.wall_images and not args.wall:
+        overrides["wall"] = "flags"  # the folder replaces the preset's wall set
+    for key in ("wall", "wall_images", "people"):
+        if getattr(args, key) is not None:
+            overrides[key] = getattr(args, key)
+    if getattr(args, "shadows", False):
+        overrides["shadows"] = True
+    return make_scenario(args.scenario, mount=getattr(args, "mount", "arm"), seed=args.seed, **overrides)
+
+
+def _add_scene_args(p: argparse.ArgumentParser, mount: bool) -> None:
+    from hvs_sim.camera_model import SENSOR_NAMES
+    from hvs_sim.scene.scenarios import (
+        DEFAULT_MULTISAMPLE,
+        MULTISAMPLE_CHOICES,
+        PEOPLE_STYLES,
+        SCENARIO_NAMES,
+        WALL_SETS,
+    )
+
+    p.add_argument("--scenario", default="walk_by", help=f"one of: {', '.join(SCENARIO_NAMES)} (hvs-sim scenes --list)")
+    if mount:  # `run` is closed-loop: its camera is on the arm, so it offers no --mount
+        p.add_argument("--mount", default="handheld", choices=("handheld", "arm"), help="where the camera is")
+    p.add_argument("--seed", type=int, default=0, help="seeds the person, the shake, the sensor noise")
+    p.add_argument("--camera", default="ideal", choices=SENSOR_NAMES,
+                   help="camera model: exposure, blur, noise, JPEG, distortion (default: ideal = clean renders)")
+    p.add_argument("--target", default=None, help="target: a flag name or a natural texture name (default: the "
+                   "scenario's, star_field)")
+    p.add_argument("--target-image", default=None, help="any PNG/JPEG file as the target (aspect ratio kept)")
+    p.add_argument("--target-width", type=float, default=None, help="physical width of the target in metres (default 0.15)")
+    p.add_argument("--wall", default=None, choices=WALL_SETS, help="what fills the wall beside the target (default flags)")
+    p.add_argument("--wall-images", default=None, help="a folder of images to fill the wall (centre-cropped to 3:2)")
+    p.add_argument("--people", default=None, choices=PEOPLE_STYLES,
+                   help="how the people look (default textured; plain = the flat figures of earlier versions)")
+    p.add_argument("--width", type=int, default=640, help="image width in pixels (64-4096)")
+    p.add_argument("--height", type=int, default=480, help="image height in pixels (64-4096)")
+    p.add_argument("--fovy", type=float, default=45.0, help="vertical field of view in degrees")
+    p.add_argument("--multisample", type=int, default=DEFAULT_MULTISAMPLE, choices=MULTISAMPLE_CHOICES,
+                   help="anti-aliasing samples per pixel of the render (0 = off, about half the render time)")
+
+
+def _provenance(argv: list[str]) -> dict:
+    import subprocess
+
+    try:
+        commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=True,
+                                cwd=Path(__file__).parent).stdout.strip()
+    except (OSError, subprocess.SubprocessError):  # no git, or not a checkout
+        commit = "unknown"
+    return {"command": "hvs-sim " + " ".join(argv), "commit": commit}
+
+
+def _given(args, *names) -> dict:
+    """The bench options the user gave, as config fields (tuples)."""
+    return {field: tuple(getattr(args, opt)) for opt, field in names if getattr(args, opt)}
+
+
+class HelpFormatter(argparse.HelpFormatter):
+    """Every option's help shows its default, unless the help already says it."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        d = action.default
+        if "default" not in text and d is not None and d is not False and d != argparse.SUPPRESS and action.option_strings:
+            text += " (default: %(default)s)"
+        return text
+
+
+EXIT_SIGINT, EXIT_SIGTERM = 130, 143  # the shell's codes for a process ended by those signals
+EXIT_OUTPUT_FAILED = 1  # the run completed but an output it was asked for could not be written
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the process is so that the clean-up written for Ctrl-C runs for it too:
+    partial summaries marked interrupted, recordings closed, benchmark workers ended."""
+
+
+_SIGTERM_SEEN = []  # set by the handler: a command may catch the interrupt itself and return 130
+
+
+def _on_sigterm(signum, frame):
+    _SIGTERM_SEEN.append(signum)
+    raise Terminated()

@@ -1,0 +1,94 @@
+"""The small commands: `hvs-sim train` (the learned parts), `hvs-sim budget` (the pose bound) and `hvs-sim demo`
+(the README's run)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from hvs_sim.cli.common import HelpFormatter, _target_overrides
+from hvs_sim.cli.run import cmd_run
+from hvs_sim.cliargs import DEFAULT_TRACKER
+from hvs_sim.outputs import fresh_out_dir, prepare_out_dir, write_atomic
+
+
+def cmd_train(args) -> int:
+    from hvs_sim.learn import train
+
+    kwargs = {"out_dir": prepare_out_dir(args.out)}
+    if args.what == "residual":
+        cfg = train.ResidualTrainConfig(**{k: v for k, v in (("sequences", args.sequences), ("frames_per_sequence", args.frames),
+                                                              ("epochs", args.epochs), ("seed", args.seed)) if v is not None})
+        meta = train.train_residual(cfg, **kwargs)
+        print(json.dumps({k: meta[k] for k in ("train_samples", "val_samples", "val_mse", "val_mse_without_residual", "seconds")}, indent=2))
+    else:
+        cfg = train.GRUTrainConfig(**{k: v for k, v in (("handheld_tracks", args.sequences), ("arm_tracks", args.sequences),
+                                                        ("track_length", args.frames), ("epochs", args.epochs), ("seed", args.seed))
+                                      if v is not None})
+        meta = train.train_gru(cfg, **kwargs)
+        print(json.dumps({k: meta[k] for k in ("train_windows", "val_windows", "val_position_error_px_after", "seconds")}, indent=2))
+    return 0
+
+
+def cmd_budget(args) -> int:
+    """`hvs-sim budget`: the pose bound for each camera, a table, a JSON and a figure against standoff and size."""
+    from hvs_sim.bench import budget as b
+
+    scene = _target_overrides(args)
+    rows = [b.budget(cam, args.standoff, **scene) for cam in dict.fromkeys(args.camera)]  # before --out is cleared
+    out = fresh_out_dir(args.out, args.overwrite, ("budget.json", "budget.md", "budget.png"))
+    text = b.table(rows)
+    curves = b.figure(rows[0].camera, out / "budget.png", **{k: v for k, v in scene.items() if k != "target_width"})
+    write_atomic(out / "budget.md", text)
+    write_atomic(out / "budget.json", json.dumps({"rows": [r.row() for r in rows], "figure_camera": rows[0].camera,
+                                                  "figure_mm_by_width": curves, "note": b.__doc__.strip()}, indent=2))
+    print(text, end="")
+    print("A bound: no unbiased estimator reading these pixels does better; biases (exposure changes between the goal "
+          "image and the frames, the target's relief) come on top.")
+    print(f"results: {out}/ (budget.json, budget.md, budget.png)")
+    return 0
+
+
+def cmd_demo(args) -> int:
+    from hvs_sim.cli import build_parser  # the package's: it gathers every command module, this one included
+
+    parser = build_parser()
+    out = Path(args.out)
+    return cmd_run(parser.parse_args(["run", "--scenario", "walk_by", "--tracker", DEFAULT_TRACKER, "--seed", "0",
+                                      "--steps", "240", "--json", str(out / "run.json"), "--rrd", str(out / "run.rrd"),
+                                      "--figures", str(out)]))
+
+
+def add_train_parser(sub) -> None:
+    p = sub.add_parser("train", formatter_class=HelpFormatter, help="train the residual regressor or the GRU predictor on simulator data")
+    p.add_argument("what", choices=("residual", "gru"))
+    p.add_argument("--sequences", type=int, default=None, help="residual: rendered sequences; gru: tracks per kind")
+    p.add_argument("--frames", type=int, default=None, help="residual: frames per sequence; gru: track length")
+    p.add_argument("--epochs", type=int, default=None, help="(default: the training config's)")
+    p.add_argument("--seed", type=int, default=None, help="(default 0)")
+    p.add_argument("--out", default="out/weights",
+                   help="output folder (default out/weights; --out assets/weights replaces the weights the package ships)")
+    p.set_defaults(func=cmd_train)
+
+
+def add_budget_parser(sub) -> None:
+    from hvs_sim.camera_model import SENSOR_NAMES
+
+    p = sub.add_parser("budget", formatter_class=HelpFormatter,
+                       help="what accuracy 6-DOF servoing can reach: the Cramér–Rao bound on the camera's pose at the "
+                            "goal for a camera, a target and a standoff (hvs_sim/bench/budget.py)")
+    p.add_argument("--camera", nargs="+", default=["phone_handheld"], choices=SENSOR_NAMES, metavar="NAME",
+                   help=f"camera presets: {', '.join(SENSOR_NAMES)} (default phone_handheld)")
+    p.add_argument("--target", default=None, help="a flag or natural texture name (default: the scenes' star_field)")
+    p.add_argument("--target-image", default=None, help="any PNG/JPEG file as the target")
+    p.add_argument("--target-width", type=float, default=None, help="the target's width in metres (default 0.15)")
+    p.add_argument("--standoff", type=float, default=0.8, help="the camera's distance to the target at the goal (m)")
+    p.add_argument("--out", default="out/budget", help="folder for budget.json, budget.md and budget.png")
+    p.add_argument("--overwrite", action="store_true", help="replace earlier results in a non-empty --out")
+    p.set_defaults(func=cmd_budget)
+
+
+def add_demo_parser(sub) -> None:
+    p = sub.add_parser("demo", formatter_class=HelpFormatter, help="the README's demo on built-in defaults (headless, offline)")
+    p.add_argument("--out", default="out/demo", help="folder for run.json, run.rrd and the figures")
+    p.set_defaults(func=cmd_demo)

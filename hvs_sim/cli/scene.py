@@ -1,0 +1,82 @@
+"""`hvs-sim scene` (a scenario rendered open-loop to frames and ground truth) and `hvs-sim scenes` (what a scene
+can be built from)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from hvs_sim.cli.common import HelpFormatter, _add_scene_args, _scenario_from_args
+from hvs_sim.errors import ConfigError, OutputError
+from hvs_sim.outputs import fresh_out_dir
+
+SCENE_OUTPUTS = ("frames.mp4", "frames/*.png", "ground_truth.csv", "ground_truth.npz", "scenario.json", "preview.png")
+
+
+def cmd_scene(args) -> int:
+    import cv2
+    import numpy as np
+
+    from hvs_sim.render.sequence import iterate_sequence, write_sequence
+
+    if args.frames is not None and args.frames < 1:
+        raise ConfigError(f"--frames must be >= 1, got {args.frames}")
+    from hvs_sim.outputs import check_apart
+
+    check_apart([p for p in (args.target_image, args.wall_images) if p], {"--out": Path(args.out) / "scenario.json"})
+    scenario = _scenario_from_args(args)
+    out = fresh_out_dir(args.out, args.overwrite, SCENE_OUTPUTS)
+    meta = write_sequence(scenario, out, fmt=args.format, n_frames=args.frames)
+    # a preview: the first frame with the ground-truth outline and centre
+    frame, gt = next(iterate_sequence(scenario, 1))
+    bgr = cv2.cvtColor(frame, cv2.COLOR_RGB2BGR)
+    cv2.polylines(bgr, [np.round(gt.corners * 16).astype(np.int32)], True, (0, 255, 0), 1, cv2.LINE_AA, shift=4)
+    cv2.drawMarker(bgr, tuple(np.round(gt.center).astype(int)), (0, 255, 0), cv2.MARKER_CROSS, 12, 1)
+    if not cv2.imwrite(str(out / "preview.png"), bgr):
+        raise OutputError(f"could not write {out / 'preview.png'} (disk full or folder not writable)")
+    print(json.dumps({"out": str(out), "frames": meta["frames"], "peak_occlusion": round(meta["peak_occlusion"], 3)}))
+    return 0
+
+
+def cmd_scenes(args) -> int:
+    """List what a scene can be built from: scenario presets, camera presets, wall sets, targets."""
+    from hvs_sim.camera_model import SENSOR_PRESETS
+    from hvs_sim.scene.flag_art import FLAG_NAMES
+    from hvs_sim.scene.scenarios import SCENARIO_NAMES, WALL_SETS, make_scenario
+    from hvs_sim.scene.textures import NATURAL_TEXTURES, TEXTURE_SETS
+
+    print("scenarios (--scenario):")
+    for name in SCENARIO_NAMES:
+        sc = make_scenario(name)
+        people = ", ".join(f"{o.kind} at {o.t_cross:g} s" for o in sc.occluders) or "nobody"
+        print(f"  {name:16s} {sc.duration:4.1f} s  target {sc.target_label:14s} wall {sc.wall:12s} people: {people}")
+    print("camera presets (--camera):")
+    for name, m in SENSOR_PRESETS.items():
+        print(f"  {name:16s} " + ("clean renders, every effect off" if m.is_ideal else
+              f"exposure {m.exposure_ms:g} ms, {m.white_e:g} e- from white, read noise {m.read_noise_e:g} e-, "
+              f"AE target {m.ae_target:g}, JPEG q{m.jpeg_quality}, light dim {m.light_dim:g} / flicker {m.light_flicker:g}"
+              + (f", distortion k1 {m.distortion[0]:g}" if m.distortion else "")))
+    print("wall sets (--wall): " + ", ".join(WALL_SETS))
+    for name, members in TEXTURE_SETS.items():
+        print(f"  {name:16s} {', '.join(members)}")
+    print("targets (--target): flags " + ", ".join(FLAG_NAMES))
+    print("                    natural textures " + ", ".join(NATURAL_TEXTURES))
+    print("                    or any image file: --target-image PATH [--target-width M]")
+    return 0
+
+
+def add_scene_parser(sub) -> None:
+    p = sub.add_parser("scene", formatter_class=HelpFormatter, help="render a scenario open-loop to frames + ground truth")
+    _add_scene_args(p, mount=True)
+    p.add_argument("--out", default="out/scene", help="output folder")
+    p.add_argument("--format", choices=("mp4", "png"), default="mp4", help="frames as one video or one PNG each")
+    p.add_argument("--frames", type=int, default=None, help="number of frames (default: the scenario's duration)")
+    p.add_argument("--shadows", action="store_true", help="cast shadows (about 5x slower on a CPU)")
+    p.add_argument("--overwrite", action="store_true", help="replace earlier results in a non-empty --out")
+    p.set_defaults(func=cmd_scene)
+
+
+def add_scenes_parser(sub) -> None:
+    p = sub.add_parser("scenes", formatter_class=HelpFormatter, help="list scenario presets, camera presets, wall sets and targets")
+    p.add_argument("--list", action="store_true", help="list them (the default)")
+    p.set_defaults(func=cmd_scenes)
