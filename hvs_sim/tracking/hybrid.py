@@ -32,7 +32,13 @@ the only way it changes.
 
 The extrapolating predictor is bounded: after `max_predict_frames` consecutive frames with neither
 an alignment nor a background measurement (default 45, 1.5 s at 30 Hz) the mode becomes "lost" and
-the estimate stops moving until re-acquisition.
+the estimate stops moving until re-acquisition. A scene cut (`cut_ncc`) and `max_unaligned_frames`
+without an alignment also end in "lost", whatever the surroundings say.
+
+All of the above takes the target to be fixed in the scene (`target_motion="static"`, the servo loop's case). For
+footage whose target moves on its own, `"moving"` drops the surroundings (the predictor alone fills gaps, and a far
+jump from where the target's own motion puts it needs a unique match); `"auto"` decides from the first aligned frames
+(`hvs-sim track`'s default).
 """
 
 from __future__ import annotations
