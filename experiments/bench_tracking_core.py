@@ -7,7 +7,7 @@ over all frames and over unoccluded frames (true occlusion 0), then over all the
 Single process: the quiet timing run (the tracking benchmark's ms come from two workers sharing the cores).
 
     python experiments/bench_tracking_core.py --methods hybrid --scenarios walk_by pause partial \
-        --seeds 100 101 102 --json experiments/results/hybrid_timing.json
+        --seeds 100 101 102 --json experiments/results/archive/hybrid_timing.json
 
 With `--imagery natural` the sequences are hvs_sim.bench.natural's (pictures moved like a hand-held phone,
 through the phone_handheld camera): `--scenarios` are its kinds and `--sources` its pictures.

@@ -1,6 +1,6 @@
 """Side-by-side tables of benchmark runs (tracking target set, or servo success), one column per run.
 
-    python experiments/compare_runs.py track experiments/results/track experiments/results/track_ideal \
+    python experiments/compare_runs.py track experiments/results/archive/track experiments/results/archive/track_ideal \
         experiments/results/track_phone_handheld --labels "plain, ideal" "textured, ideal" "textured, phone_handheld"
     python experiments/compare_runs.py servo experiments/results/servo_ideal experiments/results/servo_phone_handheld
 

@@ -31,7 +31,8 @@ from hvs_sim.validate import check_number
 SERVO_METHODS = ("ground_truth", "ground_truth/pbvs", "hybrid:homography", "hybrid:homography/pbvs", "hybrid")
 RESULTS_SCHEMA = "hvs_sim.servo-results/2"  # docs/results-schema.md
 # start offsets (camera frame): dx, dy (m), the target's depth as a share of the standoff, roll, pitch, yaw (rad).
-# Results before stop 30 (servo_6dof_v4 and older) were drawn over a depth of 0.6-1.3 (a sign slip, found in review)
+# Results before stop 30 (archive/servo_6dof_v4 and older) were drawn over a depth of 0.6-1.3 (a sign slip, found in
+# review)
 LATERAL_M, DEPTH_RANGE = 0.10, (0.7, 1.4)
 ROLL_MAX, TILT_MAX = np.radians(60.0), np.radians(TILT_MAX_DEG)
 MAX_DRAWS = 50  # start poses drawn per episode before giving up (unreachable or target out of view)
