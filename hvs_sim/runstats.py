@@ -1,0 +1,195 @@
+"""A run's summary, accumulated step by step (RunStats) without keeping the records: convergence from ground truth,
+occlusion behaviour, stage timings. The loop (loop.py) yields StepRecords; the runner, the benchmarks and the gym env
+feed them here. Its own module so that the loop's module holds the loop; it reads `LoopConfig` and `StepRecord`
+(loop.py) by their fields and does not import them, so the two modules import one way."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from hvs_sim.errors import StateError
+
+MODES = ("align", "predict", "lost", "fault")  # a record's mode, in the order its code (index) is plotted and stored
+
+
+REAPPEAR_OCCLUSION, HIDDEN_OCCLUSION = 0.1, 0.5  # the target "reappears" under 10 % hidden after ≥ 50 % hidden
+REACQUIRED_PX = 2.0  # re-acquired: aligned again with the tracked corners this close to the truth
+
+
+class RunStats:
+    """A run's summary, accumulated step by step in arrays sized for `config.steps` when the run starts,
+    so that memory does not grow with the steps taken (a 100 000-step run keeps no records)."""
+
+    def __init__(self, config):
+        n = config.steps
+        self.config, self.n = config, 0
+        self.time, self.error_px, self.tracker_error_px, self.occlusion = (np.full(n, np.nan) for _ in range(4))
+        self.controlled = np.full((n, 2), np.nan)
+        self.mode = np.zeros(n, np.int8)
+        self.step_ms = np.zeros(n)
+        self.timings: dict[str, np.ndarray] = {}
+        self.faults: set[str] = set()
+        self.saturated = self.limit_blocked = self.out_of_view = self.filter_restarts = 0
+        self.path_m = 0.0
+        self.max_condition: float | None = None
+        self.min_rank: int | None = None
+        self.first = None  # StepRecord
+        self.last = None  # StepRecord
+
+    def add(self, r) -> None:
+        if self.n >= len(self.time):
+            raise StateError(f"RunStats holds {len(self.time)} steps (LoopConfig.steps); got one more")
+        k = self.n
+        self.time[k], self.error_px[k], self.tracker_error_px[k] = r.time, r.error_px, r.tracker_error_px
+        self.occlusion[k], self.controlled[k] = r.occlusion, r.controlled_pose_error
+        self.mode[k] = MODES.index(r.mode) if r.mode in MODES else MODES.index("fault")
+        for stage, ms in r.timings.items():
+            self.timings.setdefault(stage, np.zeros(len(self.time)))[k] = ms
+        self.step_ms[k] = sum(r.timings.values()) if r.wall_ms is None else r.wall_ms
+        if r.fault:
+            self.faults.add(r.fault)
+        self.saturated += bool(r.saturated)
+        self.limit_blocked += bool(r.limit_blocked)
+        self.out_of_view += not r.target_in_view
+        self.filter_restarts += bool(r.filter_restarted)
+        if self.last is not None:
+            self.path_m += float(np.linalg.norm(r.camera.t - self.last.camera.t))
+        if r.condition is not None:
+            self.max_condition = max(self.max_condition or 0.0, r.condition)
+        if r.rank is not None:
+            self.min_rank = r.rank if self.min_rank is None else min(self.min_rank, r.rank)
+        light = dataclasses.replace(r, frame=None, track=None, people=[], arm=None)  # no image held
+        self.first = self.first or light
+        self.last = light
+        self.n += 1
+
+    def series(self) -> dict[str, np.ndarray]:
+        """Per-step time, errors, occlusion and mode of the steps so far (for figures)."""
+        n = self.n
+        return {"time": self.time[:n], "error_px": self.error_px[:n], "tracker_error_px": self.tracker_error_px[:n],
+                "occlusion": self.occlusion[:n], "predict": self.mode[:n] == MODES.index("predict"),
+                "pose_mm": self.controlled[:n, 0], "pose_deg": self.controlled[:n, 1]}
+
+    def _why_not(self, err_px: float, pose: np.ndarray) -> str:
+        """Why the run's end is not within the bounds, bound by bound ("pose error 15.4 mm > 10 mm; image 0.09 px ok")."""
+        c = self.config
+        parts = [f"image {err_px:.2f} px " + ("ok" if err_px < c.converge_px else f"> {c.converge_px:g} px"),
+                 f"pose error {pose[0]:.1f} mm " + ("ok" if pose[0] < c.converge_mm else f"> {c.converge_mm:g} mm"),
+                 f"{pose[1]:.2f}° " + ("ok" if pose[1] < c.converge_deg else f"> {c.converge_deg:g}°")]
+        failing = [p for p in parts if not p.endswith("ok")]
+        if not failing:
+            return f"the bounds were not all met over the last {c.hold_steps} steps"
+        return "; ".join(failing + [p for p in parts if p.endswith("ok")])
+
+
+    def _occlusion_figures(self) -> dict:
+        """What only an occlusion benchmark reports: how long the tracker took to re-acquire after the target
+        reappeared (s; None when it never hid, NaN-free: `reacquired` says whether it did), and how far its estimate
+        drifted while the target was hidden (max tracker error over steps ≥ HIDDEN_OCCLUSION hidden)."""
+        n = self.n
+        occ, terr, mode = self.occlusion[:n], self.tracker_error_px[:n], self.mode[:n]
+        out = {"seconds_to_reacquire": None, "reacquired": None, "max_tracker_error_while_hidden_px": None}
+        if not np.all(np.isfinite(occ)) or not np.isfinite(terr).any():
+            return out
+        hidden = np.flatnonzero(occ >= HIDDEN_OCCLUSION)
+        if not len(hidden):
+            return out
+        drift = terr[hidden]
+        out["max_tracker_error_while_hidden_px"] = float(np.nanmax(drift)) if np.isfinite(drift).any() else None
+        after = np.flatnonzero((np.arange(n) > hidden[-1]) & (occ < REAPPEAR_OCCLUSION))
+        if not len(after):
+            return out
+        back = after[0]
+        ok = np.flatnonzero((np.arange(n) >= back) & (mode == MODES.index("align")) & (terr <= REACQUIRED_PX))
+        out["reacquired"] = bool(len(ok))
+        if len(ok):
+            out["seconds_to_reacquire"] = float(self.time[ok[0]] - self.time[back])
+        return out
+
+    def summary(self) -> dict:
+        """The run's JSON summary: convergence from ground truth, occlusion behaviour, stage timings.
+
+        Converged: for `hold_steps` consecutive steps the image error is under `converge_px` AND the
+        camera's pose error, in the DOFs the controller commands, is under `converge_mm` / `converge_deg`
+        (a 4-DOF loop that centres a tilted target by sliding sideways has a small image error but not the pose)."""
+        if self.n == 0:
+            raise StateError("no steps to summarise")
+        config, n, final = self.config, self.n, self.last
+        err, ctrl_pose = self.error_px[:n], self.controlled[:n]
+        below = (err < config.converge_px) & (ctrl_pose[:, 0] < config.converge_mm) & (ctrl_pose[:, 1] < config.converge_deg)
+        steps_to_converge = None
+        run = 0
+        for i, b in enumerate(below):
+            run = run + 1 if b else 0
+            if run >= config.hold_steps:
+                steps_to_converge = i - config.hold_steps + 1
+                break
+        held = bool(n >= config.hold_steps and below[n - config.hold_steps:].all())
+        occ = self.occlusion[:n]
+        evaluated = bool(np.all(np.isfinite(occ)))
+        occluded = occ > 0  # NaN (not evaluated) counts as not occluded; the occlusion figures are then None
+        mode = self.mode[:n]
+        count = {m: int(np.sum(mode == i)) for i, m in enumerate(MODES)}
+        timing = {k: {"median_ms": float(np.median(v[:n])), "mean_ms": float(np.mean(v[:n]))}
+                  for k, v in sorted(self.timings.items())}
+        tracker_err = self.tracker_error_px[:n]
+        return {
+            "controller": None if config.policy is not None else config.controller,
+            "policy": config.policy,
+            "damping": self.first.damping,
+            "pipeline": config.pipeline,
+            "template_from": self.first.template[0],
+            "roi_inset_px": self.first.template[1],
+            "goal_frames": self.first.template[2],
+            "feature_filter": self.first.feature_filter,
+            "feature_filter_restarts": self.filter_restarts,
+            "controlled_dofs": list(final.dofs),
+            "pose_bound": {"mm": config.converge_mm, "deg": config.converge_deg,
+                           "applies_to": list(final.dofs),
+                           "note": "converged = image error under converge_px and the pose error in these DOFs under "
+                                   "the bound, both held hold_steps steps"},
+            "final_pose_error_mm": float(np.linalg.norm(final.pose_error[:3])),
+            "final_pose_error_deg": float(np.linalg.norm(final.pose_error[3:])),
+            "final_pose_error": dict(zip(("x_mm", "y_mm", "z_mm", "about_x_deg", "about_y_deg", "about_z_deg"),
+                                         (float(v) for v in final.pose_error))),
+            "final_controlled_pose_error_mm": float(final.controlled_pose_error[0]),
+            "final_controlled_pose_error_deg": float(final.controlled_pose_error[1]),
+            "camera_path_m": self.path_m,
+            "target_out_of_view_steps": self.out_of_view,
+            "max_condition_number": self.max_condition,
+            "min_rank": self.min_rank,
+            "converged": steps_to_converge is not None,
+            # the bounds met over the run's last hold_steps steps (`converged`: met for hold_steps steps at some point)
+            "held_to_end": held,
+            "not_converged_because": None if held else self._why_not(err[-1], ctrl_pose[-1]),
+            "initial_pose_error_mm": float(np.linalg.norm(self.first.pose_error[:3])),
+            "initial_pose_error_deg": float(np.linalg.norm(self.first.pose_error[3:])),
+            **self._occlusion_figures(),
+            "steps_to_converge": steps_to_converge,
+            "seconds_to_converge": None if steps_to_converge is None else float(self.time[steps_to_converge]),
+            "final_error_px": float(err[-1]),
+            "min_error_px": float(err.min()),
+            "evaluated": evaluated,
+            "max_error_px_during_occlusion": float(err[occluded].max()) if occluded.any() else None,
+            "occluded_steps": int(occluded.sum()) if evaluated else None,
+            "lost_steps": count["lost"],
+            "predict_steps": count["predict"],
+            "fault_steps": count["fault"],
+            "faults": sorted(self.faults),
+            "saturated_steps": self.saturated,
+            "limit_blocked_steps": self.limit_blocked,
+            "median_tracker_error_px": float(np.nanmedian(tracker_err)) if np.isfinite(tracker_err).any() else None,
+            "steps": n,
+            "timing": timing,
+            "steps_per_second": float(1e3 / np.mean(self.step_ms[:n])),
+        }
+
+
+def summarize_run(records: list, config) -> dict:
+    """RunStats.summary of a list of records (see there)."""
+    stats = RunStats(dataclasses.replace(config, steps=max(len(records), 1)))
+    for r in records:
+        stats.add(r)
+    return stats.summary()
