@@ -77,12 +77,14 @@ def main() -> int:
     ap.add_argument("--seeds", type=int, nargs="+", default=list(range(6)))
     args = ap.parse_args()
     rows = []
-    jobs = [(kind, seed, name) for kind in CASES for seed in args.seeds for name in TRACKERS]
-    cases = {}
     t0 = time.time()
-    for kind, seed, name in tqdm(jobs, desc="footage", unit="run"):
-        case = cases.get((kind, seed)) or cases.setdefault((kind, seed), CASES[kind](seed))
-        rows.append(run_case(case, name))
+    with tqdm(total=len(CASES) * len(args.seeds) * len(TRACKERS), desc="footage", unit="run") as bar:
+        for make in CASES.values():
+            for seed in args.seeds:
+                case = make(seed)  # made once, run by every tracker
+                for name in TRACKERS:
+                    rows.append(run_case(case, name))
+                    bar.update(1)
     table = summarise(rows)
     ecc_ms = {kind: table[kind]["ecc"]["median_ms"] for kind in CASES}
     print("| case | tracker | frames with target | ≤ 2 px | median px | cut → lost (worst frames; after-cut lost) "

@@ -53,17 +53,11 @@ def _builder(name: str, config: dict):
         cfg = DeepLKConfig(**_settings(name, DeepLKConfig, _lk_from_dict(name, config, DeepLKConfig().lk)))
         return lambda: DeepLKTracker(cfg)
     if spec.base == "hybrid":
-        from hvs_sim.tracking.aligner import DeepLKConfig
         from hvs_sim.tracking.hybrid import HybridConfig, HybridTracker, hybrid_deep_config
 
-        hybrid_keys = {f.name for f in fields(HybridConfig)} - {"deep"}
-        deep_keys = {f.name for f in fields(DeepLKConfig)}
-        unknown = set(config) - hybrid_keys - deep_keys
-        if unknown:
-            raise _unknown_settings(name, unknown, hybrid_keys | deep_keys)
         base_lk = hybrid_deep_config(residual=bool(config.get("residual", False)),
                                      warp=config.get("warp", "similarity")).lk
-        cfg = HybridConfig.for_warp(**_lk_from_dict(name, config, base_lk))
+        cfg = HybridConfig.for_warp(name, **_lk_from_dict(name, config, base_lk))  # checks the settings
         return lambda: HybridTracker(cfg)
     from hvs_sim.tracking.baselines import EccTracker, SiftTracker
 

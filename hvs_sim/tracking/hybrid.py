@@ -170,21 +170,23 @@ class HybridConfig:
     max_unaligned_frames: int = 300
 
     @classmethod
-    def for_warp(cls, warp: str = "similarity", residual: bool = False, **settings) -> HybridConfig:
-        """The hybrid's defaults for a warp model, with `settings` (HybridConfig fields, and DeepLKConfig fields for
-        the alignment) changed: the one place they are built. `make_tracker("hybrid", ...)` and the registry's
-        variants come here, so every way of asking for a hybrid gives the same tracker; `HybridConfig(deep=...)`
-        takes an alignment config whole, every field as given."""
+    def for_warp(cls, label: str = "hybrid", /, **settings) -> HybridConfig:
+        """The hybrid's defaults for its warp model (`warp`, `residual` among `settings`), with `settings`
+        (HybridConfig fields, and DeepLKConfig fields for the alignment) changed: the one place they are built and
+        checked. `make_tracker("hybrid", ...)` and the registry's variants come here, so every way of asking for a
+        hybrid gives the same tracker; `HybridConfig(deep=...)` takes an alignment config whole, every field as
+        given. `label` (positional) names the tracker in an error, e.g. a registry variant."""
         from dataclasses import fields
 
         hybrid_keys = {f.name for f in fields(cls)} - {"deep"}
         deep_keys = {f.name for f in fields(DeepLKConfig)}
         unknown = set(settings) - hybrid_keys - deep_keys
         if unknown:
-            raise ConfigError(f"hybrid: unknown setting(s) {', '.join(sorted(unknown))}; accepted: "
+            raise ConfigError(f"{label}: unknown setting(s) {', '.join(sorted(unknown))}; accepted: "
                               f"{', '.join(sorted(hybrid_keys | deep_keys))}")
-        deep = replace(hybrid_deep_config(residual=residual, warp=warp), warp=warp, residual=residual,
-                       **{k: v for k, v in settings.items() if k in deep_keys})
+        base = hybrid_deep_config(residual=bool(settings.get("residual", False)),
+                                  warp=settings.get("warp", "similarity"))
+        deep = replace(base, **{k: v for k, v in settings.items() if k in deep_keys})
         return cls(deep=deep, **{k: v for k, v in settings.items() if k in hybrid_keys})
 
     def __post_init__(self):
@@ -224,9 +226,10 @@ class HybridTracker(Tracker):
         self.warp = config.deep.warp
         predictor = make_predictor(config.predictor, config.history, config.gru_weights)
         self.scene_sources: list[MotionSource] = []  # what the surroundings say: a static target's motion
+        self.anchor = None
         if config.background and config.reanchor:
-            self.scene_sources.append(KeyframeAnchorSource(self.aligner, config.background_config,
-                                                           config.background_gate_px))
+            self.anchor = KeyframeAnchorSource(self.aligner, config.background_config, config.background_gate_px)
+            self.scene_sources.append(self.anchor)
         self.scene_motion = None
         if config.background:
             self.scene_motion = SceneMotionSource(self.aligner, config.background_config, config.background_gate_px)
@@ -283,17 +286,17 @@ class HybridTracker(Tracker):
         c, st = self.hconfig, self.state
         if not c.verify_reacquisition:
             return True
+        unique = m.score - m.second >= c.reacquire_margin  # no look-alike elsewhere: the peak stands out
         if self.target_motion != "static":
             expected = self.predictor_source.predictor.peek()
             miss = np.linalg.norm(matrix_to_pose(A, st.center0)[:2] - expected)
-            return miss <= c.reacquire_px + c.background_gate_px * st.predict_run or \
-                m.score - m.second >= c.reacquire_margin
+            return miss <= c.reacquire_px + c.background_gate_px * st.predict_run or unique
         offset = matrix_to_pose(A, st.center0)[:2] - matrix_to_pose(st.A, st.center0)[:2]
         allowed = c.reacquire_px + c.background_gate_px * st.predict_run + c.reacquire_drift_px * st.since_aligned
         if np.linalg.norm(offset) <= allowed:
             st.jump_seen(None, 0.0)
             return True
-        if m.score - m.second < c.reacquire_margin:  # a look-alike elsewhere: the peak is not unique
+        if not unique:
             st.jump_seen(None, 0.0)
             return False
         return st.jump_seen(offset, c.background_gate_px) >= c.reacquire_frames
@@ -368,12 +371,11 @@ class HybridTracker(Tracker):
         """The first motion source with a proposal moves the estimate (module docstring); after a scene cut, or too
         long without an alignment, the estimate is lost until the target is aligned again."""
         st = self.state
-        if st.after_cut and not cut:  # the view may have come back (a full-view occluder, not a cut): only an
-            for source in self.sources:  # absolute measurement against aligned keyframes can say so
-                proposal = source.propose(work, st) if isinstance(source, KeyframeAnchorSource) else None
-                if proposal is not None:
-                    st.measured(work, proposal, self.sources)
-                    return Estimate(st.A, proposal.mode, occ, m.score, self._unaligned_confidence(proposal.kind))
+        if st.after_cut and not cut and self.anchor in self.sources:  # the view may have come back (a full-view
+            proposal = self.anchor.propose(work, st)  # occluder, not a cut): only the aligned keyframes can say so
+            if proposal is not None:
+                st.measured(work, proposal, self.sources)
+                return Estimate(st.A, proposal.mode, occ, m.score, self._unaligned_confidence(proposal.kind))
         if cut or st.after_cut or st.since_aligned >= self.hconfig.max_unaligned_frames:
             st.lost(work, self.sources, cut=cut)
             return Estimate(st.A, Mode.LOST, occ, m.score, 0.0)
