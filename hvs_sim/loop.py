@@ -7,9 +7,8 @@ for that step (zero twist) and is written into the record; the loop goes on.
 from __future__ import annotations
 
 import dataclasses
-import time
 from collections.abc import Iterator
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -17,7 +16,7 @@ import torch
 
 from hvs_sim import plugins
 from hvs_sim.camera_model import distort_points, undistort_points
-from hvs_sim.control.arm import ArmDriver
+from hvs_sim.control.arm import ArmDriver, JointCommand
 from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA, FeatureFilter
 from hvs_sim.control.ibvs import (
     CONTROLLERS,
@@ -36,8 +35,9 @@ from hvs_sim.control.ibvs import (
 from hvs_sim.control.pbvs import PBVSController
 from hvs_sim.control.protocol import ControlInput, PolicyInput, scale_depths
 from hvs_sim.errors import ConfigError, HvsError, StateError, choice_error
+from hvs_sim.loopparts import Capture, Episode, Measured, ResolvedLoop, Stopwatch, frozen, lap
 from hvs_sim.render.camera import CameraPose
-from hvs_sim.render.renderer import MAX_STILL_FRAMES, GroundTruth, Renderer
+from hvs_sim.render.renderer import MAX_STILL_FRAMES, Renderer
 from hvs_sim.runstats import MODES, RunStats, summarize_run  # noqa: F401  (re-exported: the loop's summary)
 from hvs_sim.scene.scenarios import Scenario
 from hvs_sim.scene.world import Scene
@@ -268,37 +268,52 @@ class ServoLoop:
         self.flag_desired = self.renderer.project(CameraPose(ref_R, ref_pos), self.scene.target_corners_world())
         self.desired_depth = float(scenario.standoff)
         check_start_in_view(self.scene, self.renderer)
+        self.resolved = self._resolve(tracker, config)
+        self.ibvs_config = dataclasses.replace(config.ibvs, damping=self.resolved.damping)
+
+    # the resolved settings under the names the rest of the package reads
+    warp = property(lambda self: self.resolved.warp)
+    dofs = property(lambda self: self.resolved.dofs)
+    filter_alpha = property(lambda self: self.resolved.filter_alpha)
+    template_from = property(lambda self: self.resolved.template_from)
+    goal_frames = property(lambda self: self.resolved.goal_frames)
+
+    def _resolve(self, tracker: str, config: LoopConfig) -> ResolvedLoop:
+        """LoopConfig's None settings decided once, from the tracker, the law and the DOFs the features observe."""
         # the DOFs the features observe: ground truth and a homography tracker give perspective corners
-        self.warp = "homography" if self.tracker is None else self.tracker.warp
+        warp = "homography" if self.tracker is None else self.tracker.warp
         declared = (self.policy.dofs if self.policy is not None else self.law.dofs if self.law is not None else None)
-        self.dofs = tuple(config.ibvs.dofs or declared or dofs_for(self.warp))
-        tracked_6dof = self.tracker is not None and len(self.dofs) == 6
+        dofs = tuple(config.ibvs.dofs or declared or dofs_for(warp))
+        tracked_6dof = self.tracker is not None and len(dofs) == 6
         damping = config.ibvs.damping
         if damping is None:  # exact features need none; tracked ones on six DOF do (IBVSConfig.damping)
             damping = TRACKED_6DOF_DAMPING if tracked_6dof and config.controller == "ibvs" else 0.0  # PBVS: no L⁺
-        self.ibvs_config = dataclasses.replace(config.ibvs, damping=damping)
         alpha = config.feature_filter
-        self.filter_alpha = (FEATURE_FILTER_ALPHA if tracked_6dof else 0.0) if alpha is None else float(alpha)
+        alpha = (FEATURE_FILTER_ALPHA if tracked_6dof else 0.0) if alpha is None else float(alpha)
         can_seed = getattr(self.tracker, "can_seed", True)  # an outside tracker without seed(A): its first frame
-        self.template_from = template_view(config.template_from, tracked_6dof and can_seed)
+        template_from = template_view(config.template_from, tracked_6dof and can_seed)
         if self.tracker is None and not self.oracle:  # a law on the images or a policy: they compare with the goal
             if config.template_from == "start":
                 raise ConfigError("a photometric law or a policy compares the frames with the goal image: leave "
                                   "template_from out (or give 'goal')")
-            self.template_from = "goal"
-        if self.template_from == "goal" and not can_seed:
+            template_from = "goal"
+        if template_from == "goal" and not can_seed:
             raise ConfigError(f"tracker {tracker!r} has no seed(A), so it cannot take its template from the goal image "
                               "and be placed on the first frame: use template_from='start'")
-        if self.template_from == "start" and config.goal_frames is not None:
+        if template_from == "start" and config.goal_frames is not None:
             raise ConfigError(f"goal_frames ({config.goal_frames}) averages frames into a goal image, but this run's "
                               "template comes from its first frame (template_from='start'): leave goal_frames out, or "
                               "use template_from='goal'")
-        if self.template_from == "start":
-            self.goal_frames = None
+        if template_from == "start":
+            goal_frames = None
         elif self.oracle:  # the oracle takes only the target's corners from a goal image: one frame
-            self.goal_frames = 1
+            goal_frames = 1
         else:
-            self.goal_frames = config.goal_frames or GOAL_FRAMES
+            goal_frames = config.goal_frames or GOAL_FRAMES
+        inset = config.roi_inset_px  # default_inset's answer, where it needs no goal image
+        if inset is None and (template_from == "start" or self.oracle):
+            inset = 0
+        return ResolvedLoop(warp, dofs, damping, alpha, template_from, goal_frames, inset)
 
     def controlled_pose_error(self, pose_error: np.ndarray) -> tuple[float, float]:
         """(mm, deg) of the pose error in the DOFs this loop controls."""
@@ -358,15 +373,15 @@ class ServoLoop:
         s = (features_px - K[:2, 2]) / np.diag(K)[:2]
         s_star = (desired_px - K[:2, 2]) / np.diag(K)[:2]
         depths = true_depths if true_depths is not None else scale_depths(s, s_star, self.desired_depth)
-        return ControlInput(features=_frozen(s), desired=_frozen(s_star), depths=_frozen(depths),
-                            desired_depth=self.desired_depth, K=_frozen(K), features_px=_frozen(features_px),
-                            desired_px=_frozen(desired_px), mode=mode, camera_motion=_frozen(motion),
-                            dt=1.0 / self.scenario.fps, image=_frozen(frame) if reads_images else None,
-                            goal_image=_frozen(goal) if reads_images else None, step=step)
+        return ControlInput(features=frozen(s), desired=frozen(s_star), depths=frozen(depths),
+                            desired_depth=self.desired_depth, K=frozen(K), features_px=frozen(features_px),
+                            desired_px=frozen(desired_px), mode=mode, camera_motion=frozen(motion),
+                            dt=1.0 / self.scenario.fps, image=frozen(frame) if reads_images else None,
+                            goal_image=frozen(goal) if reads_images else None, step=step)
 
     def _policy_input(self, frame, gt, goal, desired_px, step) -> PolicyInput:
-        return PolicyInput(image=_frozen(frame), joints=_frozen(gt.joint_positions), goal_image=_frozen(goal),
-                           K=_frozen(self.renderer.K), desired_px=_frozen(self._pinhole(desired_px)),
+        return PolicyInput(image=frozen(frame), joints=frozen(gt.joint_positions), goal_image=frozen(goal),
+                           K=frozen(self.renderer.K), desired_px=frozen(self._pinhole(desired_px)),
                            dt=1.0 / self.scenario.fps, step=step)
 
     def _bounded(self, twist: np.ndarray, dofs: tuple[str, ...]) -> ControlOutput:
@@ -381,20 +396,126 @@ class ServoLoop:
     def __iter__(self) -> Iterator[StepRecord]:
         return self.run()
 
-    def _capture(self) -> _Capture:
+    def run(self) -> Iterator[StepRecord]:
+        """The episode's steps. With `LoopConfig.pipeline` the tracker works on frame k in a second thread while
+        this one steps the physics and renders frame k + 1: frame k's command then acts from step k + 1 (one frame
+        of actuation latency, as a real camera's read-out and processing add), and the step takes about the longer
+        of the two, not their sum."""
+        if not self.config.pipeline:
+            yield from self._sequential()
+            return
+        pool = ThreadPoolExecutor(1, thread_name_prefix="hvs_sim-track")
+        threads = torch.get_num_threads()
+        try:  # a core left to the renderer (torch's setting is process-wide, restored below)
+            torch.set_num_threads(max(1, threads - 1))
+            yield from self._pipelined(pool)
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+            torch.set_num_threads(threads)
+
+    def _sequential(self) -> Iterator[StepRecord]:
+        """Capture, track, control, physics one after another: a frame's command acts at once."""
+        cap = self._capture()
+        ep = self._step_zero(cap)
+        for step in range(self.config.steps):
+            timings = dict(cap.timings)
+            truth = self.renderer.transfer(ep.flag0, cap.gt.corners, ep.roi0)  # where the features truly are
+            watch = Stopwatch()
+            first = self._start_tracker(ep, truth) if step == 0 else None
+            seen = self._track_step(truth, cap.frame, first)
+            timings["track"] = watch.ms()
+            with lap(timings, "control"):
+                seen, ctrl, cmd = self._control(ep, cap, seen, step)
+            timings["control"] += cap.depths_ms
+            with lap(timings, "physics"):
+                self.scene.advance(cmd.qdot)
+            yield self._record(step, cap, ep, seen, ctrl, cmd, timings)
+            if step + 1 < self.config.steps:
+                cap = self._capture()
+
+    def _pipelined(self, pool: ThreadPoolExecutor) -> Iterator[StepRecord]:
+        """Frame k tracked in `pool` while this thread steps the physics with frame k − 1's command and captures frame
+        k + 1. A step's render, ground_truth and physics (and the true depths in control) are therefore those of the
+        next frame (0 after the last), its track the init's time here plus the tracker's own (Track.ms), and wall_ms
+        runs from the end of the step before, so the consumer's time counts in the next step."""
+        qdot_due = np.zeros(len(self.arm.limits.qdot_max))  # the command that acts this step: the step before's
+        wall = Stopwatch()
+        cap = self._capture()
+        ep = self._step_zero(cap)
+        for step in range(self.config.steps):
+            truth = self.renderer.transfer(ep.flag0, cap.gt.corners, ep.roi0)
+            watch = Stopwatch()
+            first = self._start_tracker(ep, truth) if step == 0 else None
+            pending = pool.submit(self._track, cap.frame, first) if self.tracker is not None else None
+            init_ms = watch.ms()
+            timings = {"render": 0.0, "ground_truth": 0.0, "physics": 0.0}  # the last step captures no next frame
+            nxt, depths_ms = None, 0.0
+            if step + 1 < self.config.steps:  # meanwhile: physics with the command due, then the next frame
+                with lap(timings, "physics"):
+                    self.scene.advance(qdot_due)
+                nxt = self._capture()
+                timings.update(nxt.timings)
+                depths_ms = nxt.depths_ms
+            seen = self._track_step(truth, pending=pending)
+            timings["track"] = init_ms + (seen.track.ms if seen.track is not None else 0.0)
+            with lap(timings, "control"):
+                seen, ctrl, cmd = self._control(ep, cap, seen, step)  # at the next step's arm configuration
+            timings["control"] += depths_ms
+            yield self._record(step, cap, ep, seen, ctrl, cmd, timings, wall_ms=wall.lap())
+            qdot_due, cap = cmd.qdot, nxt
+
+    def _capture(self) -> Capture:
         """Everything a step reads from the scene at its state: the frame and the truth that grades it."""
         r, scene, timings = self.renderer, self.scene, {}
-        t0 = time.perf_counter()
-        frame = r.rgb()
-        timings["render"] = 1e3 * (time.perf_counter() - t0)
-        t0 = time.perf_counter()
-        gt = r.ground_truth(occlusion=self.config.evaluate, counts=False)
-        timings["ground_truth"] = 1e3 * (time.perf_counter() - t0)
-        t0 = time.perf_counter()
+        with lap(timings, "render"):
+            frame = r.rgb()
+        with lap(timings, "ground_truth"):
+            gt = r.ground_truth(occlusion=self.config.evaluate, counts=False)
+        watch = Stopwatch()
         depths = self.true_depths() if self.ibvs_config.depth == "true" else None  # only when asked
-        depths_ms = 1e3 * (time.perf_counter() - t0)
-        return _Capture(frame, gt, scene.time, scene.pose_error(), scene.people_poses(), scene.arm_poses(), depths,
-                        timings, depths_ms)
+        depths_ms = watch.ms()
+        return Capture(frame, gt, scene.time, scene.pose_error(), scene.people_poses(), scene.arm_poses(), depths,
+                       timings, depths_ms)
+
+    def _step_zero(self, cap: Capture) -> Episode:
+        """What the episode keeps from its first frame: the template's image and box, s*, the law, the policy's reset
+        and the feature filter (the tracker starts in _start_tracker, whose time counts as tracking)."""
+        r, res = self.renderer, self.resolved
+        # the template's image and the target's corners in it: this first frame, or the goal image
+        template_frame, flag0 = (cap.frame, cap.gt.corners) if res.template_from == "start" else self.goal_image()
+        goal = None if res.template_from == "start" else template_frame
+        roi = roi_from_corners(flag0)
+        inset = self.default_inset(roi) if res.roi_inset_px is None else res.roi_inset_px
+        roi = inset_roi(roi, inset)
+        roi0 = roi_corners(roi)
+        desired = r.transfer(flag0, self.flag_desired, roi0)
+        controller = self._controller(self._pinhole(desired), goal, roi)
+        if self.policy is not None:
+            try:
+                self.policy.reset(self._policy_input(cap.frame, cap.gt, goal, desired, 0))
+            except Exception as exc:  # outside code: the run cannot start, and says why
+                raise StateError(f"policy {self.config.policy!r} failed in reset(): {type(exc).__name__}: {exc}") \
+                    from exc
+        feature_filter = (FeatureFilter(r.K, res.filter_alpha, self._pinhole(desired), self.desired_depth)
+                          if res.filter_alpha > 0 else None)
+        return Episode(flag0, roi, roi0, inset, desired, template_frame, goal, controller, feature_filter)
+
+    def _start_tracker(self, ep: Episode, truth: np.ndarray) -> Track | None:
+        """The tracker's init on the template: its own track of the first frame with a start template; with a goal
+        one it is then seeded at the target's corners in the first frame. Without a template there is nothing to
+        servo on: a failure ends the run."""
+        if self.tracker is None:
+            return None
+        try:
+            first = self.tracker.init(ep.template_frame, ep.roi)
+            if self.template_from == "goal":  # the target's corners marked in the first frame
+                first = None
+                self.tracker.seed(perspective_transform(ep.roi0, truth))
+            return first
+        except Exception as exc:  # any cause: the run cannot go on, and says why
+            where = "the first frame" if self.template_from == "start" else "the goal image and the first frame"
+            raise StateError(f"tracker {self.tracker_name!r} could not start on {where} (template ROI {ep.roi}): "
+                             f"{exc}") from exc
 
     def _track(self, frame: np.ndarray, first: Track | None) -> Track:
         """The tracker's corners for a frame (`first`: the init's own track of step 0, when it has one)."""
@@ -403,173 +524,71 @@ class ServoLoop:
             raise FloatingPointError("tracker returned non-finite corners")
         return track
 
-    def run(self) -> Iterator[StepRecord]:
-        """The episode's steps. With `LoopConfig.pipeline` the tracker works on frame k in a second thread while
-        this one steps the physics and renders frame k + 1: frame k's command then acts from step k + 1 (one frame
-        of actuation latency, as a real camera's read-out and processing add), and the step takes about the longer
-        of the two, not their sum."""
-        cfg = self.config
-        pool = ThreadPoolExecutor(1, thread_name_prefix="hvs_sim-track") if cfg.pipeline else None
-        threads = torch.get_num_threads()
+    def _track_step(self, truth: np.ndarray, frame: np.ndarray | None = None, first: Track | None = None,
+                    pending: Future | None = None) -> Measured:
+        """The step's corners: the tracker's, here or from the tracking thread (`pending`), else the truth's. A
+        tracker fault must not crash the run: it is recorded, and control holds the arm."""
         try:
-            if pool is not None:  # a core left to the renderer (torch's setting is process-wide, restored below)
-                torch.set_num_threads(max(1, threads - 1))
-            yield from self._steps(pool)
-        finally:
-            if pool is not None:
-                pool.shutdown(wait=True, cancel_futures=True)
-                torch.set_num_threads(threads)
+            if self.tracker is None:  # the oracle's features; a law on the images or a policy reads none
+                return Measured(None, truth, truth, truth, "align", None)
+            track = pending.result() if pending is not None else self._track(frame, first)
+            return Measured(track, truth, track.corners, track.corners, track.mode, None)
+        except Exception as exc:  # noqa: BLE001 - any tracker fault
+            lost = truth * np.nan
+            return Measured(None, truth, lost, lost, "fault", f"{type(exc).__name__}: {exc}")
 
-    def _steps(self, pool: ThreadPoolExecutor | None) -> Iterator[StepRecord]:
-        scene, r, cfg = self.scene, self.renderer, self.config
-        flag0 = roi0 = desired = controller = feature_filter = goal = None
-        inset = 0
-        camera_prev = None
-        qdot_prev = np.zeros(len(self.arm.limits.qdot_max))  # pipelined: the command that acts this step
-        t_step = time.perf_counter()
-        cap = self._capture()
-        for step in range(cfg.steps):
-            timings = dict(cap.timings)
-            depths_ms = cap.depths_ms
-            frame, gt = cap.frame, cap.gt
-            if step == 0:
-                # the template's image and the target's corners in it: this first frame, or the goal image
-                template_frame, flag0 = (frame, gt.corners) if self.template_from == "start" else self.goal_image()
-                goal = None if self.template_from == "start" else template_frame
-                roi = roi_from_corners(flag0)
-                inset = self.default_inset(roi) if cfg.roi_inset_px is None else cfg.roi_inset_px
-                roi = inset_roi(roi, inset)
-                roi0 = roi_corners(roi)
-                desired = r.transfer(flag0, self.flag_desired, roi0)
-                controller = self._controller(self._pinhole(desired), goal, roi)
-                if self.policy is not None:
-                    try:
-                        self.policy.reset(self._policy_input(frame, gt, goal, desired, step))
-                    except Exception as exc:  # outside code: the run cannot start, and says why
-                        raise StateError(f"policy {cfg.policy!r} failed in reset(): {type(exc).__name__}: {exc}") \
-                            from exc
-                feature_filter = (FeatureFilter(r.K, self.filter_alpha, self._pinhole(desired), self.desired_depth)
-                                  if self.filter_alpha > 0 else None)
-            gt_features = r.transfer(flag0, gt.corners, roi0)
-            fault, track, init_track = None, None, None
-            t0 = time.perf_counter()
-            if step == 0 and self.tracker is not None:
-                try:  # without a template there is nothing to servo on: a failed init ends the run
-                    init_track = self.tracker.init(template_frame, roi)
-                    if self.template_from == "goal":  # the target's corners marked in the first frame
-                        init_track = None
-                        self.tracker.seed(perspective_transform(roi0, gt_features))
-                except Exception as exc:  # any cause: the run cannot go on, and says why
-                    where = "the first frame" if self.template_from == "start" else "the goal image and the first frame"
-                    raise StateError(f"tracker {self.tracker_name!r} could not start on {where} (template ROI {roi}): "
-                                     f"{exc}") from exc
-            pending = None
-            if self.tracker is not None and pool is not None:
-                pending = pool.submit(self._track, frame, init_track)
-            t_track = time.perf_counter()
-            nxt = None
-            if pool is not None:  # meanwhile: physics with the command due, the next frame (none after the last)
-                timings.update(render=0.0, ground_truth=0.0, physics=0.0)
-                depths_ms = 0.0
-                if step + 1 < cfg.steps:
-                    t1 = time.perf_counter()
-                    scene.advance(qdot_prev)
-                    physics_ms = 1e3 * (time.perf_counter() - t1)
-                    nxt = self._capture()
-                    depths_ms = nxt.depths_ms
-                    timings.update(nxt.timings, physics=physics_ms)
-            try:
-                if self.tracker is None:  # the oracle's features; a law on the images or a policy reads none
-                    features, mode = gt_features, "align"
-                else:
-                    track = pending.result() if pending is not None else self._track(frame, init_track)
-                    features, mode = track.corners, track.mode
-            except Exception as exc:  # noqa: BLE001 - a tracker fault must not crash the run: stop the arm and record it
-                fault, features, mode = f"{type(exc).__name__}: {exc}", gt_features * np.nan, "fault"
-            if pool is None:
-                timings["track"] = 1e3 * (time.perf_counter() - t0)
-            else:  # the init here, then the tracker's own time beside the physics and the next render
-                timings["track"] = 1e3 * (t_track - t0) + (track.ms if track is not None else 0.0)
-            t0 = time.perf_counter()
-            ctrl = None
-            tracked = features
-            control_px = self._pinhole(features) if fault is None else features
-            motion = np.eye(4) if camera_prev is None else np.linalg.solve(camera_prev.matrix(), cap.gt.camera.matrix())
-            camera_prev = cap.gt.camera
-            if feature_filter is not None:  # the camera's pose from the joints' forward kinematics, as ArmDriver reads it
-                control_px = feature_filter.update(control_px, cap.gt.camera, usable=fault is None and mode != "lost")
-                if fault is None:
-                    features = self._distort(control_px)
+    def _control(self, ep: Episode, cap: Capture, seen: Measured,
+                 step: int) -> tuple[Measured, ControlOutput | None, JointCommand]:
+        """The law's (or policy's) twist on the step's features, through the feature filter, as joint velocities at
+        the arm's configuration now. A fault (the tracker's, or the law's) gives a zero twist: the arm holds."""
+        features, mode, fault = seen.features, seen.mode, seen.fault
+        ctrl = None
+        control_px = self._pinhole(features) if fault is None else features
+        camera, prev = cap.gt.camera, ep.camera_prev
+        motion = np.eye(4) if prev is None else np.linalg.solve(prev.matrix(), camera.matrix())
+        ep.camera_prev = camera
+        if ep.feature_filter is not None:  # the camera's pose from the joints' forward kinematics, as ArmDriver reads it
+            control_px = ep.feature_filter.update(control_px, camera, usable=fault is None and mode != "lost")
             if fault is None:
-                # PBVS cannot take a pose from a degenerate quad, an outside law or policy may fail or answer garbage:
-                # like a tracker fault, stop the arm and record it
-                try:
-                    if self.policy is not None:
-                        ctrl = self._bounded(self.policy.act(self._policy_input(frame, gt, goal, desired, step)),
-                                             self.dofs)
-                    else:
-                        inp = self._control_input(control_px, desired, cap.depths, mode, motion, frame, goal, step)
-                        ctrl = controller.compute(inp)
-                        if self.law is not None:  # (twist, dofs): bounded as the built-in laws bound theirs
-                            ctrl = self._bounded(ctrl[0], ctrl[1] or self.dofs)
-                except self._law_errors as exc:
-                    fault, mode = f"{type(exc).__name__}: {exc}", "fault"
-                    if feature_filter is not None:  # a faulty frame clears the filter, as a tracker fault does
-                        feature_filter.reset()
-            if ctrl is not None:
-                twist, gain, sat, sv = ctrl.twist, ctrl.gain, ctrl.saturated, ctrl.singular_values
-            else:
-                twist, gain, sat, sv = np.zeros(6), 0.0, False, np.zeros(0)
-            cmd = self.arm.command(twist)  # at the arm's configuration now (pipelined: the next step's)
-            timings["control"] = 1e3 * (time.perf_counter() - t0) + depths_ms
-            if pool is None:
-                t0 = time.perf_counter()
-                scene.advance(cmd.qdot)
-                timings["physics"] = 1e3 * (time.perf_counter() - t0)
-            now = time.perf_counter()
-            record = StepRecord(
-                step=step, time=cap.time, frame=frame if cfg.keep_frames else None, track=track, mode=mode,
-                features=features, gt_features=gt_features, desired=desired,
-                error_px=float(np.linalg.norm(gt_features - desired, axis=1).mean()),
-                tracker_error_px=(float(np.linalg.norm(tracked - gt_features, axis=1).mean())
-                                  if fault is None and (self.tracker is not None or self.oracle) else float("nan")),
-                occlusion=gt.occlusion, twist=twist, qdot=cmd.qdot, q=gt.joint_positions, camera=gt.camera, gain=gain,
-                saturated=sat or cmd.velocity_saturated, limit_blocked=cmd.limit_blocked, fault=fault, timings=timings,
-                pose_error=cap.pose_error, singular_values=sv,
-                dofs=(ctrl.dofs or self.dofs) if ctrl is not None else self.dofs, damping=self.ibvs_config.damping,
-                feature_filter=self.filter_alpha,
-                filter_restarted=feature_filter is not None and feature_filter.restarted,
-                template=(self.template_from, int(inset), self.goal_frames),
-                target_in_view=corners_in_view(gt.corners, self.scenario.camera),
-                controlled_pose_error=self.controlled_pose_error(cap.pose_error), people=cap.people, arm=cap.arm,
-                wall_ms=1e3 * (now - t_step) if pool is not None else None)
-            yield record
-            t_step = now  # pipelined: the next step's wall time includes the consumer's time for this one
-            if pool is not None:
-                qdot_prev, cap = cmd.qdot, nxt
-            elif step + 1 < cfg.steps:
-                cap = self._capture()
+                features = self._distort(control_px)
+        if fault is None:
+            # PBVS cannot take a pose from a degenerate quad, an outside law or policy may fail or answer garbage:
+            # like a tracker fault, stop the arm and record it
+            try:
+                if self.policy is not None:
+                    ctrl = self._bounded(self.policy.act(self._policy_input(cap.frame, cap.gt, ep.goal, ep.desired,
+                                                                            step)), self.dofs)
+                else:
+                    inp = self._control_input(control_px, ep.desired, cap.depths, mode, motion, cap.frame, ep.goal, step)
+                    ctrl = ep.controller.compute(inp)
+                    if self.law is not None:  # (twist, dofs): bounded as the built-in laws bound theirs
+                        ctrl = self._bounded(ctrl[0], ctrl[1] or self.dofs)
+            except self._law_errors as exc:
+                fault, mode = f"{type(exc).__name__}: {exc}", "fault"
+                if ep.feature_filter is not None:  # a faulty frame clears the filter, as a tracker fault does
+                    ep.feature_filter.reset()
+        cmd = self.arm.command(ctrl.twist if ctrl is not None else np.zeros(6))
+        return dataclasses.replace(seen, features=features, mode=mode, fault=fault), ctrl, cmd
 
-
-def _frozen(a):
-    """A read-only copy for outside code (a law, a policy): nothing it does to it reaches the loop's state."""
-    if a is None:
-        return None
-    out = np.array(a, copy=True)
-    out.flags.writeable = False
-    return out
-
-
-@dataclass
-class _Capture:
-    """What a step reads from the scene at its state (ServoLoop._capture)."""
-
-    frame: np.ndarray
-    gt: GroundTruth
-    time: float
-    pose_error: np.ndarray
-    people: list
-    arm: tuple | None
-    depths: np.ndarray | None
-    timings: dict[str, float]  # render, ground_truth
-    depths_ms: float  # the true depths (IBVSConfig.depth="true"): control's input, counted as control
+    def _record(self, step: int, cap: Capture, ep: Episode, seen: Measured, ctrl: ControlOutput | None,
+                cmd: JointCommand, timings: dict[str, float], wall_ms: float | None = None) -> StepRecord:
+        """The step as logged and graded: what the loop did, beside the truth it did not see."""
+        gt, truth, res = cap.gt, seen.truth, self.resolved
+        twist, gain, sat, sv = ((ctrl.twist, ctrl.gain, ctrl.saturated, ctrl.singular_values) if ctrl is not None
+                                else (np.zeros(6), 0.0, False, np.zeros(0)))
+        graded = seen.fault is None and (self.tracker is not None or self.oracle)
+        return StepRecord(
+            step=step, time=cap.time, frame=cap.frame if self.config.keep_frames else None, track=seen.track,
+            mode=seen.mode, features=seen.features, gt_features=truth, desired=ep.desired,
+            error_px=float(np.linalg.norm(truth - ep.desired, axis=1).mean()),
+            tracker_error_px=float(np.linalg.norm(seen.tracked - truth, axis=1).mean()) if graded else float("nan"),
+            occlusion=gt.occlusion, twist=twist, qdot=cmd.qdot, q=gt.joint_positions, camera=gt.camera, gain=gain,
+            saturated=sat or cmd.velocity_saturated, limit_blocked=cmd.limit_blocked, fault=seen.fault,
+            timings=timings, pose_error=cap.pose_error, singular_values=sv,
+            dofs=(ctrl.dofs or res.dofs) if ctrl is not None else res.dofs, damping=self.ibvs_config.damping,
+            feature_filter=res.filter_alpha,
+            filter_restarted=ep.feature_filter is not None and ep.feature_filter.restarted,
+            template=(res.template_from, int(ep.inset), res.goal_frames),
+            target_in_view=corners_in_view(gt.corners, self.scenario.camera),
+            controlled_pose_error=self.controlled_pose_error(cap.pose_error), people=cap.people, arm=cap.arm,
+            wall_ms=wall_ms)

@@ -26,6 +26,7 @@ from hvs_sim.camera_model import REALISTIC_PRESET
 from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.loop import LoopConfig
 from hvs_sim.outputs import write_atomic
+from hvs_sim.provenance import code_provenance
 from hvs_sim.validate import check_number
 
 SERVO_METHODS = ("ground_truth", "ground_truth/pbvs", "hybrid:homography", "hybrid:homography/pbvs", "hybrid")
@@ -250,26 +251,6 @@ def _episode(args):
     return (scen_name, method, seed), summary, trace
 
 
-def _provenance() -> dict:
-    """hvs_sim's version and the commit of the checkout it runs from ("unknown" outside one)."""
-    import subprocess
-
-    from hvs_sim import __version__
-
-    here = Path(__file__).resolve().parent.parent  # the package's folder
-    try:
-        def git(*args):
-            return subprocess.run(["git", *args], capture_output=True, text=True, check=True, cwd=here).stdout.strip()
-
-        if Path(git("rev-parse", "--show-toplevel")).resolve() != here.parent:  # installed inside another repository
-            raise OSError("not hvs_sim's own checkout")
-        commit = git("rev-parse", "HEAD")
-        dirty = bool(git("status", "--porcelain", "--", str(here)))  # the package's code differs from the commit
-    except (OSError, subprocess.SubprocessError):
-        commit, dirty = "unknown", None
-    return {"hvs_sim_version": __version__, "commit": commit, "code_modified": dirty}
-
-
 def method_results(eps: list[dict], success_px: float) -> dict:
     """One method's figures over its episodes: each success rule with its 95 % Wilson interval, medians with bootstrap
     intervals, and what only an occlusion benchmark reports."""
@@ -316,7 +297,7 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    provenance = _provenance()  # the code that runs: read before the episodes, which may take hours
+    provenance = code_provenance()  # the code that runs: read before the episodes, which may take hours
     seeds = config.episode_seeds
     # workers resolve each method again: a name registered in this process travels as its module:callable
     run_as = {m: portable_method(m) if config.workers > 1 else m for m in config.trackers}

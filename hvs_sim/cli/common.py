@@ -5,7 +5,6 @@ handling of `main`."""
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from hvs_sim.errors import ConfigError
 
@@ -79,14 +78,10 @@ def _add_scene_args(p: argparse.ArgumentParser, mount: bool) -> None:
 
 
 def _provenance(argv: list[str]) -> dict:
-    import subprocess
+    """The command line beside the code it ran (hvs_sim.provenance)."""
+    from hvs_sim.provenance import code_provenance
 
-    try:
-        commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, check=True,
-                                cwd=Path(__file__).parent).stdout.strip()
-    except (OSError, subprocess.SubprocessError):  # no git, or not a checkout
-        commit = "unknown"
-    return {"command": "hvs-sim " + " ".join(argv), "commit": commit}
+    return {"command": "hvs-sim " + " ".join(argv), **code_provenance()}
 
 
 def _given(args, *names) -> dict:

@@ -1,0 +1,108 @@
+"""The closed loop's small parts, apart so that loop.py reads as the loop: the settings it resolves, what one step
+carries between its phases, and the stopwatch of its timings. hvs_sim.loop imports this module, never the reverse."""
+
+from __future__ import annotations
+
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from hvs_sim.render.camera import CameraPose
+from hvs_sim.render.renderer import GroundTruth
+from hvs_sim.tracking import Track
+
+if TYPE_CHECKING:
+    from hvs_sim.control.feature_filter import FeatureFilter
+
+
+@dataclass(frozen=True)
+class ResolvedLoop:
+    """LoopConfig's "None: decided by the loop" settings as this loop decided them (ServoLoop.resolved, run.json)."""
+
+    warp: str  # the features' warp model: the tracker's; "homography" for ground truth and none (perspective corners)
+    dofs: tuple[str, ...]  # the DOFs commanded: IBVSConfig.dofs, else the outside law's or policy's, else the warp's
+    damping: float  # IBVSConfig.damping: TRACKED_6DOF_DAMPING for tracked corners on six DOF under IBVS, else 0
+    filter_alpha: float  # LoopConfig.feature_filter: FEATURE_FILTER_ALPHA for tracked corners on six DOF, else 0 (off)
+    template_from: str  # "goal" or "start" (template_view; "goal" for a law on the images or a policy)
+    goal_frames: int | None  # frames averaged into the goal image: None with a start template, 1 for the oracle
+    # the template's inset (px); None: decided at step 0 from the target's box in the goal image (default_inset)
+    roi_inset_px: int | None
+
+
+@dataclass
+class Capture:
+    """What a step reads from the scene at its state (ServoLoop._capture)."""
+
+    frame: np.ndarray
+    gt: GroundTruth
+    time: float
+    pose_error: np.ndarray
+    people: list
+    arm: tuple | None
+    depths: np.ndarray | None
+    timings: dict[str, float]  # render, ground_truth
+    depths_ms: float  # the true depths (IBVSConfig.depth="true"): control's input, counted as control
+
+
+@dataclass
+class Episode:
+    """What step 0 fixes for the whole episode (ServoLoop._step_zero), and the one thing carried from step to step."""
+
+    flag0: np.ndarray  # the target's corners in the template's image
+    roi: tuple[int, int, int, int]  # the template's box in that image (x, y, w, h), inset
+    roi0: np.ndarray  # its corners: the points the features are
+    inset: int  # px the box lies inside the target's outline
+    desired: np.ndarray  # s*: the features at the reference pose, in the camera's image
+    template_frame: np.ndarray  # the first frame or the goal image
+    goal: np.ndarray | None  # the goal image (None with a start template)
+    controller: object | None  # the servo law: a built-in or an outside one (None: a policy's episode)
+    feature_filter: FeatureFilter | None  # None: off
+    camera_prev: CameraPose | None = None  # the camera at the step before: the camera's own motion between frames
+
+
+@dataclass
+class Measured:
+    """A step's features: the tracker's or the oracle's, then as control used them."""
+
+    track: Track | None
+    truth: np.ndarray  # where the features truly are (the target's true corners carried into the template's box)
+    tracked: np.ndarray  # the tracker's (or oracle's) corners, graded against the truth
+    features: np.ndarray  # the corners the controller used (after the feature filter, in the camera's image)
+    mode: str
+    fault: str | None
+
+
+def frozen(a):
+    """A read-only copy for outside code (a law, a policy): nothing it does to it reaches the loop's state."""
+    if a is None:
+        return None
+    out = np.array(a, copy=True)
+    out.flags.writeable = False
+    return out
+
+
+class Stopwatch:
+    """Milliseconds since it was started (or since the last lap)."""
+
+    def __init__(self):
+        self.t0 = time.perf_counter()
+
+    def ms(self) -> float:
+        return 1e3 * (time.perf_counter() - self.t0)
+
+    def lap(self) -> float:
+        """ms() and start again from now: consecutive laps leave no gap between them."""
+        now = time.perf_counter()
+        out, self.t0 = 1e3 * (now - self.t0), now
+        return out
+
+
+@contextmanager
+def lap(timings: dict[str, float], key: str):
+    """Write the block's milliseconds into timings[key] (not when it raises: the step is then abandoned)."""
+    watch = Stopwatch()
+    yield
+    timings[key] = watch.ms()
