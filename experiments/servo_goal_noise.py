@@ -32,9 +32,10 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 from hvs_sim.bench.servo import episode_scenario
 from hvs_sim.camera_model import sensor_preset
-from hvs_sim.control.ibvs import GOAL_FRAMES, interaction_matrix
+from hvs_sim.control.ibvs import interaction_matrix
 from hvs_sim.errors import InputError
 from hvs_sim.loop import GOAL_ROI_INSET_PX
+from hvs_sim.loopparts import GOAL_FRAMES
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import CameraConfig
 from hvs_sim.scene.world import Scene

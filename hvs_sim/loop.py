@@ -21,8 +21,6 @@ from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA, FeatureFilter
 from hvs_sim.control.ibvs import (
     CONTROLLERS,
     DOF_NAMES,
-    GOAL_FRAMES,
-    TEMPLATE_VIEWS,
     TRACKED_6DOF_DAMPING,
     ControlOutput,
     IBVSConfig,
@@ -35,7 +33,17 @@ from hvs_sim.control.ibvs import (
 from hvs_sim.control.pbvs import PBVSController
 from hvs_sim.control.protocol import ControlInput, PolicyInput, scale_depths
 from hvs_sim.errors import ConfigError, HvsError, StateError, choice_error
-from hvs_sim.loopparts import Capture, Episode, Measured, ResolvedLoop, Stopwatch, frozen, lap
+from hvs_sim.loopparts import (
+    GOAL_FRAMES,
+    TEMPLATE_VIEWS,
+    Capture,
+    Episode,
+    Measured,
+    ResolvedLoop,
+    Stopwatch,
+    frozen,
+    lap,
+)
 from hvs_sim.render.camera import CameraPose
 from hvs_sim.render.renderer import MAX_STILL_FRAMES, Renderer
 from hvs_sim.runstats import MODES, RunStats, summarize_run  # noqa: F401  (re-exported: the loop's summary)

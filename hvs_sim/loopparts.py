@@ -17,6 +17,13 @@ from hvs_sim.tracking import Track
 if TYPE_CHECKING:
     from hvs_sim.control.feature_filter import FeatureFilter
 
+# where the tracked features' template comes from (LoopConfig.template_from): the run's first frame ("start"),
+# or an image taken with the camera at the reference pose before the run ("goal": teach-by-showing)
+TEMPLATE_VIEWS = ("start", "goal")
+# LoopConfig.goal_frames' default: frames averaged into the goal image (2 s of a 30 Hz camera held at the goal), so
+# that the template freezes little of the camera's noise (docs/tuning.md)
+GOAL_FRAMES = 64
+
 
 @dataclass(frozen=True)
 class ResolvedLoop:

@@ -12,9 +12,10 @@ from hvs_sim.bench.servo import ServoBenchConfig
 from hvs_sim.camera_model import sensor_preset
 from hvs_sim.cli import main
 from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA, FeatureFilter
-from hvs_sim.control.ibvs import GOAL_FRAMES, IBVSConfig, IBVSController
+from hvs_sim.control.ibvs import IBVSConfig, IBVSController
 from hvs_sim.errors import ConfigError
 from hvs_sim.loop import LoopConfig, ServoLoop, summarize_run
+from hvs_sim.loopparts import GOAL_FRAMES
 from hvs_sim.render.camera import CameraPose, intrinsics
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario

@@ -20,9 +20,9 @@ from hvs_sim.camera_model import jpeg_variance, output_variance, sensor_preset, 
 from hvs_sim.control.bound import PoseBound, pose_bound
 from hvs_sim.control.dvs import gradients
 from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
-from hvs_sim.control.ibvs import GOAL_FRAMES
 from hvs_sim.errors import ConfigError, InputError
 from hvs_sim.loop import GOAL_ROI_INSET_PX
+from hvs_sim.loopparts import GOAL_FRAMES
 from hvs_sim.tracking.frames import inset_roi, roi_from_corners
 
 GREY = np.array([0.299, 0.587, 0.114])  # the trackers' grey (OpenCV's RGB→grey weights)

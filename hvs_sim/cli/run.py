@@ -121,7 +121,8 @@ def add_run_parser(sub) -> None:
                         "hvs_sim/tracking/registry.py)")
     p.add_argument("--steps", type=int, default=240, help="control steps at 30 Hz")
     from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
-    from hvs_sim.control.ibvs import CONTROLLERS, GOAL_FRAMES, TEMPLATE_VIEWS
+    from hvs_sim.control.ibvs import CONTROLLERS
+    from hvs_sim.loopparts import GOAL_FRAMES, TEMPLATE_VIEWS
     from hvs_sim.tracking.warp import WARPS
 
     p.add_argument("--warp", default=None, choices=WARPS,

@@ -23,14 +23,6 @@ from hvs_sim.validate import check_number
 SIMILARITY_DOFS = ("vx", "vy", "vz", "wz")  # what a similarity tracker's corners observe
 RANK_TOL = 1e-6  # singular values below this × the largest count as zero (rank of L)
 CONTROLLERS = ("ibvs", "pbvs", "dvs")  # the built-in laws (dvs: photometric, control/dvs.py)
-# where the tracked features' template comes from (LoopConfig.template_from): the run's first frame ("start"),
-# or an image taken with the camera at the reference pose before the run ("goal": teach-by-showing)
-TEMPLATE_VIEWS = ("start", "goal")
-# LoopConfig.goal_frames' default: frames averaged into the goal image (2 s of a 30 Hz camera held at the goal). One
-# noisy JPEG frame froze its noise into the template and biased the tracked corners at the goal along L's weak
-# direction: the servo benchmark's tuning episodes (300-305) ended ~40 mm / 3° from the goal; with 16 frames ~12 mm,
-# 64 ~8 mm, 256 no better (README)
-GOAL_FRAMES = 64
 # tracked corners' noise through L⁺ (cond ~540 at the goal) makes velocities the arm cannot follow: undamped the
 # 6-DOF servo benchmark ended 10-17 px off. 0.005 held it but closed L's weak direction in ~4 s; with the averaged
 # goal image and the feature filter (loop.py) 0.002 closes it ~2.5× faster (tuned on episodes 300-305; README)
