@@ -3,13 +3,17 @@ workers, at the env's default size (160×120, `ideal` camera, `clear`), for the 
 
     python experiments/bench_env.py --json experiments/results/env_speed.json
 
-Every reset builds and compiles the scene again (no model reuse): the reset figure is that cost.
+A reset restarts on the last episode's compiled model where the model would be the same (the default `clear` flag
+wall: always); the reference beside it is a new env for each episode, which builds and compiles the scene and its
+rendering context. With people each seed draws new clothes, hence a new model: `walk_by` is measured with the default
+`appearance="per_episode"` (a build each reset) and with `appearance="fixed"`, with the process's memory over 40 resets.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import resource
 import time
 from pathlib import Path
 
@@ -17,9 +21,11 @@ import gymnasium as gym
 import numpy as np
 
 import hvs_sim  # noqa: F401 - registers the envs
+from hvs_sim.envs.visual_servo import VisualServoEnv
 from hvs_sim.outputs import write_atomic
 
 RESETS, STEPS = 6, 200
+MEMORY_RESETS = 40
 
 
 def _make(obs_mode):
@@ -41,8 +47,33 @@ def single(obs_mode: str) -> dict:
             env.reset()
     sps = STEPS / (time.perf_counter() - t)
     env.close()
+    fresh = []  # the reference: a new env each episode builds and compiles everything
+    for k in range(RESETS):
+        t = time.perf_counter()
+        gym.make("hvs_sim/VisualServo-v1", obs_mode=obs_mode).reset(seed=k)
+        fresh.append(1e3 * (time.perf_counter() - t))
     return {"reset_ms_median": float(np.median(resets)), "reset_ms": resets, "steps_per_second": sps,
-            "reset_in_steps": float(np.median(resets)) * sps / 1e3}
+            "reset_in_steps": float(np.median(resets)) * sps / 1e3, "new_env_reset_ms_median": float(np.median(fresh)),
+            "reset_speedup": float(np.median(fresh) / np.median(resets))}
+
+
+def _rss_mb() -> float:
+    with open("/proc/self/status") as f:
+        return next(int(line.split()[1]) for line in f if line.startswith("VmRSS")) / 1024
+
+
+def people(appearance: str) -> dict:
+    """walk_by (textured people): reset ms, model builds and resident memory over MEMORY_RESETS resets."""
+    env = VisualServoEnv(scenario="walk_by", appearance=appearance)
+    env.reset(seed=0)
+    rss0, resets = _rss_mb(), []
+    for _ in range(MEMORY_RESETS):
+        t = time.perf_counter()
+        env.reset()
+        resets.append(1e3 * (time.perf_counter() - t))
+    return {"appearance": appearance, "reset_ms_median": float(np.median(resets)), "model_builds": env.model_builds,
+            "resets": MEMORY_RESETS + 1, "rss_growth_mb": _rss_mb() - rss0,
+            "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
 
 
 def vector(obs_mode: str, n: int = 2) -> dict:
@@ -66,8 +97,13 @@ def main() -> None:
     for mode in ("image", "features"):
         out[mode] = {"single": single(mode), "async_spawn": vector(mode)}
         s, v = out[mode]["single"], out[mode]["async_spawn"]
-        print(f"{mode:9s} reset {s['reset_ms_median']:.0f} ms (= {s['reset_in_steps']:.0f} steps), "
-              f"{s['steps_per_second']:.0f} steps/s alone, {v['env_steps_per_second']:.0f} env steps/s with 2 workers")
+        print(f"{mode:9s} reset {s['reset_ms_median']:.0f} ms (= {s['reset_in_steps']:.0f} steps; a new env "
+              f"{s['new_env_reset_ms_median']:.0f} ms, {s['reset_speedup']:.1f}x), {s['steps_per_second']:.0f} steps/s "
+              f"alone, {v['env_steps_per_second']:.0f} env steps/s with 2 workers")
+    out["walk_by"] = [people(a) for a in ("per_episode", "fixed")]
+    for r in out["walk_by"]:
+        print(f"walk_by appearance={r['appearance']:11s} reset {r['reset_ms_median']:.0f} ms, {r['model_builds']} "
+              f"builds in {r['resets']} resets, memory {r['rss_growth_mb']:+.1f} MB over {MEMORY_RESETS} resets")
     Path(args.json).parent.mkdir(parents=True, exist_ok=True)
     write_atomic(args.json, json.dumps(out, indent=2))
 

@@ -66,7 +66,8 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
         rig = getattr(loop.scene, "rig", None)
         bag = BagRecorder(bag_tmp, loop.renderer.K, scenario.camera.width, scenario.camera.height,
                           joint_names=[j.name for j in getattr(rig, "joints", [])] if scenario.mount == "arm" else (),
-                          target=target_frame(loop.scene.target_corners_world()))
+                          target=target_frame(loop.scene.target_corners_world()),
+                          distortion=scenario.camera.sensor.distortion, name=Path(mcap).name)
     stats = RunStats(config)
     picks = FramePicks(config.steps) if figures else None
     records: list[StepRecord] = []
@@ -118,8 +119,9 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
         if bag is not None:
             bag.close()
             settle(bag_tmp, Path(mcap), keep)
-        if json_path and keep:
-            write_atomic(json_path, json.dumps(_summary(scenario, tracker, stats, logger, interrupted), indent=2))
+        if json_path and keep:  # with the settings the loop decided for those the config left to it
+            saved = {**_summary(scenario, tracker, stats, logger, interrupted), "resolved": resolved_json(loop)}
+            write_atomic(json_path, json.dumps(saved, indent=2))
     summary = _summary(scenario, tracker, stats, logger, False)
     if figures:
         from hvs_sim.viz.figures import run_figures
@@ -161,6 +163,11 @@ class FramePicks:
         else:  # the thirds of the run; a run cut short of them shows its last step there
             middle = (([self.thirds[k] for k in sorted(self.thirds)] or [self.start]) + [self.last])[:2]
         return [self.start, *middle, self.last]
+
+
+def resolved_json(loop: ServoLoop) -> dict:
+    """ServoLoop.resolved as JSON values (tuples as lists)."""
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(loop.resolved).items()}
 
 
 def _summary(scenario, tracker, stats: RunStats, logger, interrupted: bool) -> dict:

@@ -300,7 +300,7 @@ class TrackOutputs:
         if self.mcap:
             from hvs_sim.viz.rosbag import FootageBag
 
-            self.bag = FootageBag(self.mcap, fps)
+            self.bag = FootageBag(self.mcap, fps, name=self.final[-1].name)
             self._open.callback(self.bag.close)
         self.csv = csv.writer(self._open.enter_context(self.csv_path.open("w", newline="")))
         self.csv.writerow(CSV_COLUMNS)

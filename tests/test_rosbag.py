@@ -30,7 +30,7 @@ def bag(tmp_path_factory):
 
 def test_every_topic_with_its_type_and_one_message_a_step(bag):
     out, records, types, messages = bag
-    assert (out / "metadata.yaml").is_file() and list(out.glob("*.mcap"))
+    assert (out / "metadata.yaml").is_file() and [p.name for p in out.glob("*.mcap")] == ["run_bag.mcap"]
     assert types == TOPICS
     for topic in TOPICS:
         assert len(messages[topic]) == (1 if topic == "/tf_static" else STEPS), topic
@@ -100,3 +100,38 @@ def test_track_writes_the_frames_and_the_tracked_corners_as_a_bag(tmp_path):
         assert np.allclose(centre, [float(cx), float(cy)], atol=0.05)  # the corners of the CSV's centre
     assert got["/track/mode"][0][1].data == "init"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["clip", "out", "track_bag"]  # no temporary left
+
+
+def test_scene_writes_its_frames_and_truth_as_a_bag_with_the_lens(tmp_path):
+    from rosbags.highlevel import AnyReader
+
+    from hvs_sim.cli import main
+    from hvs_sim.viz.rosbag import SCENE_TOPICS
+
+    bag = tmp_path / "scene_bag"
+    assert main(["scene", "--scenario", "walk_by", "--mount", "arm", "--frames", "4", "--width", "160", "--height",
+                 "120", "--camera", "webcam", "--out", str(tmp_path / "out"), "--mcap", str(bag)]) == 0
+    with AnyReader([bag]) as reader:
+        assert {c.topic: c.msgtype for c in reader.connections} == SCENE_TOPICS
+        got = {}
+        for conn, ns, raw in reader.messages():
+            got.setdefault(conn.topic, []).append((ns, reader.deserialize(raw, conn.msgtype)))
+    assert all(len(v) == 4 for v in got.values()) and [p.name for p in bag.glob("*.mcap")] == ["scene_bag.mcap"]
+    truth = np.load(tmp_path / "out" / "ground_truth.npz")
+    for k, (ns, poly) in enumerate(got["/corners/true"]):
+        assert abs(ns - truth["time"][k] * 1e9) < 1e3  # the CSV and NPZ keep the time to the microsecond
+        assert np.allclose([[p.x, p.y] for p in poly.polygon.points], truth["corners"][k], atol=1e-4)
+    info = got["/camera/camera_info"][0][1]
+    from hvs_sim.camera_model import sensor_preset
+
+    lens = sensor_preset("webcam").distortion
+    assert np.allclose(info.d[:len(lens)], lens) and np.allclose(np.reshape(info.k, (3, 3)), truth["K"])
+    tf = got["/tf"][0][1].transforms
+    assert [t.child_frame_id for t in tf] == ["camera_optical", "target"]
+    cam = tf[0].transform.translation
+    assert np.allclose([cam.x, cam.y, cam.z], truth["camera_pose"][0][:3, 3])
+    names = got["/joint_states"][0][1].name
+    assert len(names) == 6 and np.allclose(got["/joint_states"][0][1].position, truth["joint_positions"][0])
+    assert 0 <= got["/target/occlusion"][0][1].data <= 1
+    tgt = tf[1].transform.translation  # the target's centre, about a standoff (0.8 m) from the camera
+    assert 0.6 < np.linalg.norm(np.subtract([tgt.x, tgt.y, tgt.z], [cam.x, cam.y, cam.z])) < 1.0

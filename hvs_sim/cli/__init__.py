@@ -34,7 +34,16 @@ from hvs_sim.cli.common import (
     _scenario_from_args,
     _target_overrides,
 )
-from hvs_sim.cli.misc import add_budget_parser, add_demo_parser, add_train_parser, cmd_budget, cmd_demo, cmd_train
+from hvs_sim.cli.misc import (
+    add_budget_parser,
+    add_dataset_parser,
+    add_demo_parser,
+    add_train_parser,
+    cmd_budget,
+    cmd_dataset,
+    cmd_demo,
+    cmd_train,
+)
 from hvs_sim.cli.run import _check_viewer, add_run_parser, cmd_run, parse_start_offset
 from hvs_sim.cli.scene import SCENE_OUTPUTS, add_scene_parser, add_scenes_parser, cmd_scene, cmd_scenes
 from hvs_sim.cli.sweep import add_sweep_parser, cmd_sweep
@@ -45,7 +54,7 @@ __all__ = [
     "_SIGTERM_SEEN", "HelpFormatter", "Terminated", "_add_scene_args", "_apply_suite", "_check_bench_options",
     "_check_viewer", "_cmd_bench_sim", "_given", "_on_sigterm", "_provenance", "_scenario_from_args",
     "_target_overrides", "build_parser", "cmd_bench", "cmd_bench_compare", "cmd_bench_natural", "cmd_budget",
-    "cmd_demo", "cmd_run", "cmd_scene", "cmd_scenes", "cmd_sweep", "cmd_train", "main", "parse_start_offset"
+    "cmd_dataset", "cmd_demo", "cmd_run", "cmd_scene", "cmd_scenes", "cmd_sweep", "cmd_train", "main", "parse_start_offset"
 ]
 
 
@@ -62,6 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_bench_parser(sub)
     add_sweep_parser(sub)
     add_budget_parser(sub)
+    add_dataset_parser(sub)
     add_scenes_parser(sub)
     add_demo_parser(sub)
 

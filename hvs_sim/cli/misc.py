@@ -1,9 +1,10 @@
-"""The small commands: `hvs-sim train` (the learned parts), `hvs-sim budget` (the pose bound) and `hvs-sim demo`
-(the README's run)."""
+"""The small commands: `hvs-sim train` (the learned parts), `hvs-sim budget` (the pose bound), `hvs-sim dataset`
+(offline-RL data) and `hvs-sim demo` (the README's run)."""
 
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 from hvs_sim.cli.common import HelpFormatter, _target_overrides
@@ -49,6 +50,27 @@ def cmd_budget(args) -> int:
     return 0
 
 
+def cmd_dataset(args) -> int:
+    """`hvs-sim dataset`: the IBVS expert's episodes in the gym env, as a Minari dataset under --out."""
+    from hvs_sim.bench.dataset import DatasetConfig, record
+
+    config = DatasetConfig(episodes=args.episodes, seed=args.seed, scenario=args.scenario, camera=args.camera,
+                           obs_mode=args.obs, max_steps=args.max_steps, dataset_id=args.dataset_id)
+    try:
+        summary = record(config, prepare_out_dir(args.out))
+        code = 0
+    except KeyboardInterrupt as exc:  # the finished episodes were written
+        if not exc.args:
+            raise
+        summary, code = exc.args[0], 130
+        print(f"hvs-sim: interrupted: the {summary['episodes']} finished episodes were written", file=sys.stderr)
+    print(f"{summary['episodes']} episodes, {summary['steps']} steps, expert success {summary['success_rate']:.0%}; "
+          f"start poses drawn again {sum(summary['start_draws']) - summary['episodes']} times (out of reach or view)")
+    print(f"dataset: {summary['path']}\nread it: MINARI_DATASETS_PATH={args.out} python -c \"import minari; "
+          f"print(minari.load_dataset('{config.dataset_id}'))\"")
+    return code
+
+
 def cmd_demo(args) -> int:
     from hvs_sim.cli import build_parser  # the package's: it gathers every command module, this one included
 
@@ -92,3 +114,26 @@ def add_demo_parser(sub) -> None:
     p = sub.add_parser("demo", formatter_class=HelpFormatter, help="the README's demo on built-in defaults (headless, offline)")
     p.add_argument("--out", default="out/demo", help="folder for run.json, run.rrd and the figures")
     p.set_defaults(func=cmd_demo)
+
+
+def add_dataset_parser(sub) -> None:
+    from hvs_sim.bench.dataset import DATASET_ID, DATASET_OBS_MODES, DatasetConfig
+    from hvs_sim.camera_model import SENSOR_NAMES
+    from hvs_sim.scene.scenarios import SCENARIO_NAMES
+
+    d = DatasetConfig()
+    p = sub.add_parser("dataset", formatter_class=HelpFormatter,
+                       help="record the IBVS expert driving the gym env from the servo benchmark's start poses, as a "
+                            "Minari dataset for offline RL or behaviour cloning (hvs_sim/bench/dataset.py)")
+    p.add_argument("--episodes", type=int, default=d.episodes, help="episodes to record")
+    p.add_argument("--seed", type=int, default=d.seed, help="episode k uses seed SEED + k")
+    p.add_argument("--scenario", default=d.scenario, choices=SCENARIO_NAMES, metavar="NAME",
+                   help=f"one of: {', '.join(SCENARIO_NAMES)}")
+    p.add_argument("--camera", default=d.camera, choices=SENSOR_NAMES, metavar="NAME",
+                   help=f"camera preset: {', '.join(SENSOR_NAMES)}")
+    p.add_argument("--obs", default=d.obs_mode, choices=DATASET_OBS_MODES,
+                   help="the env's observation (image modes: 160×120 frames, far larger files)")
+    p.add_argument("--max-steps", type=int, default=d.max_steps, help="an episode not converged by then is truncated")
+    p.add_argument("--dataset-id", default=DATASET_ID, help="Minari's namespace/name-vN")
+    p.add_argument("--out", default="out/datasets", help="a Minari datasets root (MINARI_DATASETS_PATH)")
+    p.set_defaults(func=cmd_dataset)

@@ -17,16 +17,18 @@ def cmd_scene(args) -> int:
     import cv2
     import numpy as np
 
-    from hvs_sim.render.sequence import iterate_sequence, write_sequence
+    from hvs_sim.render.sequence import iterate_sequence
 
     if args.frames is not None and args.frames < 1:
         raise ConfigError(f"--frames must be >= 1, got {args.frames}")
     from hvs_sim.outputs import check_apart
 
     check_apart([p for p in (args.target_image, args.wall_images) if p], {"--out": Path(args.out) / "scenario.json"})
+    if args.mcap and Path(args.mcap).exists():
+        raise ConfigError(f"--mcap {args.mcap} exists: a ROS 2 bag is a new folder; give a path that does not exist")
     scenario = _scenario_from_args(args)
     out = fresh_out_dir(args.out, args.overwrite, SCENE_OUTPUTS)
-    meta = write_sequence(scenario, out, fmt=args.format, n_frames=args.frames)
+    meta = _write(scenario, out, args)
     # a preview: the first frame with the ground-truth outline and centre
     frame, gt = next(iterate_sequence(scenario, 1))
     bgr = cv2.cvtColor(frame, cv2.COLOR_RGB2BGR)
@@ -36,6 +38,33 @@ def cmd_scene(args) -> int:
         raise OutputError(f"could not write {out / 'preview.png'} (disk full or folder not writable)")
     print(json.dumps({"out": str(out), "frames": meta["frames"], "peak_occlusion": round(meta["peak_occlusion"], 3)}))
     return 0
+
+
+def _write(scenario, out: Path, args) -> dict:
+    """The sequence, and with --mcap its ROS 2 bag, written under a temporary name and renamed into place when whole."""
+    from hvs_sim.render.sequence import write_sequence
+
+    if not args.mcap:
+        return write_sequence(scenario, out, fmt=args.format, n_frames=args.frames)
+    from hvs_sim.outputs import settle, temporary_beside
+    from hvs_sim.render.renderer import Renderer
+    from hvs_sim.viz.rosbag import SceneBag
+
+    final = Path(args.mcap)
+    final.parent.mkdir(parents=True, exist_ok=True)
+    tmp = temporary_beside(final)
+    cam = scenario.camera
+    bag = SceneBag(tmp, Renderer.intrinsics_of(scenario), cam.width, cam.height, cam.sensor.distortion, final.name)
+    done = False
+    try:
+        meta = write_sequence(scenario, out, fmt=args.format, n_frames=args.frames, on_frame=bag.log,
+                              on_start=bag.start)
+        bag.close()
+        done = True
+    finally:
+        settle(tmp, final, keep=done)
+    print(f"ROS 2 bag: {final} ({', '.join(f'{t} {n}' for t, n in bag.count.items())})")
+    return meta
 
 
 def cmd_scenes(args) -> int:
@@ -72,6 +101,8 @@ def add_scene_parser(sub) -> None:
     p.add_argument("--format", choices=("mp4", "png"), default="mp4", help="frames as one video or one PNG each")
     p.add_argument("--frames", type=int, default=None, help="number of frames (default: the scenario's duration)")
     p.add_argument("--shadows", action="store_true", help="cast shadows (about 5x slower on a CPU)")
+    p.add_argument("--mcap", default=None, metavar="DIR",
+                   help="also write a ROS 2 bag (MCAP) of the frames and their truth: a new folder (hvs_sim/viz/rosbag.py)")
     p.add_argument("--overwrite", action="store_true", help="replace earlier results in a non-empty --out")
     p.set_defaults(func=cmd_scene)
 

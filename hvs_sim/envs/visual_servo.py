@@ -19,6 +19,11 @@ render(): "rgb_array" a third-person view of the scene (arm, wall, people; `rend
 camera's depth.
 reset(options=...): any of "scenario", "start_offset" ((dx, dy, dz, roll) or (dx, dy, dz, roll, pitch, yaw), m and
 rad), "camera", "people" for that episode; other keys are refused by name.
+Reset cost: an episode whose compiled model would be the same as the last one's (scene.world.model_key: the same
+scenario, camera and people, the seed drawing nothing of the model) restarts on it (Scene.restart) instead of building
+and compiling the scene and its rendering context again. With people or per-seed textures each episode's seed draws a
+new look, hence a new model; `appearance="fixed"` keeps the look drawn at the first reset (or the last reset with a
+seed) so those episodes restart too, at the price of less visual variety.
 
 Defaults worth knowing: scenario "clear" (no person; pass e.g. scenario="walk_by"), a 160×120
 image, the ideal camera. An action must have the action space's shape and finite values (a NaN
@@ -45,6 +50,7 @@ from hvs_sim.validate import check_number
 OBS_MODES = ("image", "image+goal", "image+goal+depth", "features")
 JOINT_OBS = ("wrapped", "sincos")
 RESET_OPTIONS = ("scenario", "start_offset", "camera", "people")
+APPEARANCES = ("per_episode", "fixed")
 RENDER_MODES = ("rgb_array", "depth_array")
 PIXEL_BOUND = 1e4  # corner coordinates in the observation: pixels, far outside any image
 START_DRAWS = 20  # start poses drawn per reset before giving up (unreachable, or the target out of view)
@@ -67,7 +73,8 @@ class VisualServoEnv(gym.Env):
                  width: int = 160, height: int = 120, max_offset: float = 0.05, max_roll: float = 0.15,
                  converge_px: float = 1.0, hold_steps: int = 5, max_linear: float = 0.1, max_angular: float = 0.5,
                  camera: str = "ideal", reward: str = "pixels", obs_mode: str = "image", joints: str = "wrapped",
-                 tracker: str = "ground_truth", render_size: tuple[int, int] = (480, 360)):
+                 tracker: str = "ground_truth", render_size: tuple[int, int] = (480, 360),
+                 appearance: str = "per_episode"):
         """camera: the camera model of the observations (hvs_sim.camera_model.SENSOR_PRESETS), e.g.
         "phone_handheld" for exposure changes, blur, noise and JPEG as a real camera gives them.
         tracker: with obs_mode "features", whose corners the observation holds: "ground_truth", a tracker of the
@@ -76,6 +83,8 @@ class VisualServoEnv(gym.Env):
             raise choice_error("render_mode", render_mode, [*RENDER_MODES, "None"])
         if obs_mode not in OBS_MODES:
             raise choice_error("obs_mode", obs_mode, OBS_MODES)
+        if appearance not in APPEARANCES:
+            raise choice_error("appearance", appearance, APPEARANCES)
         if joints not in JOINT_OBS:
             raise choice_error("joints", joints, JOINT_OBS)
         if tracker != "ground_truth":
@@ -109,6 +118,9 @@ class VisualServoEnv(gym.Env):
         self.converge_px, self.hold_steps = converge_px, hold_steps
         self.scale = np.array([max_linear] * 3 + [max_angular] * 3)
         self.scene = self.renderer = None
+        self.appearance, self._look_seed = appearance, None
+        self._compiled = None  # the last episode's Scene: its model and rendering context, kept for restart
+        self.model_builds = 0  # scenes built and compiled (the rest of the resets restarted one)
         n = 6
         # velocities well inside ±10 rad/s (actuators stop at < 1 rad/s)
         if joints == "wrapped":  # angles wrapped to [−π, π)
@@ -201,7 +213,10 @@ class VisualServoEnv(gym.Env):
             raise InputError(f"seed must be None or a non-negative integer, got {seed!r}")
         super().reset(seed=None if seed is None else int(seed))
         from hvs_sim.render.renderer import Renderer
-        from hvs_sim.scene.world import Scene
+        from hvs_sim.scene.world import Scene, model_key
+
+        if seed is not None:  # a seeded reset draws its look again, so that it repeats from any earlier state
+            self._look_seed = None
 
         base = self._episode_scenario(options)
         rng = self.np_random
@@ -212,16 +227,25 @@ class VisualServoEnv(gym.Env):
             offset = (*rng.uniform(-self.max_offset, self.max_offset, 3), rng.uniform(-self.max_roll, self.max_roll))
             if given:
                 offset = options["start_offset"]
+            look = int(rng.integers(0, 2**31 - 1))
+            if self.appearance == "fixed":
+                look = self._look_seed = look if self._look_seed is None else self._look_seed
             try:
-                scen = dataclasses.replace(base, seed=int(rng.integers(0, 2**31 - 1)),
-                                           start_offset=tuple(float(v) for v in offset))
+                scen = dataclasses.replace(base, seed=look, start_offset=tuple(float(v) for v in offset))
             except (TypeError, ValueError, ConfigError) as exc:
                 raise InputError(f"reset option start_offset {offset!r}: {exc}; accepted: 4 or 6 finite numbers (dx, "
                                  "dy, dz m, roll[, pitch, yaw] rad)") from None
+            self.scene = None  # until a start pose is usable
             try:  # a start the arm cannot reach or with the target out of view: a drawn one is drawn again
-                self.scene = Scene(scen, framebuffer=self.render_size if self.render_mode == "rgb_array" else None)
-                self.renderer = Renderer(self.scene)
-                check_start_in_view(self.scene, self.renderer)
+                if self._compiled is not None and model_key(scen) == model_key(self._compiled.scenario):
+                    self._compiled.restart(scen)
+                else:
+                    self._compiled = None  # the old model's memory goes before the new one is built
+                    self._compiled = Scene(scen, framebuffer=self.render_size if self.render_mode == "rgb_array" else None)
+                    self.model_builds += 1
+                renderer = Renderer(self._compiled)
+                check_start_in_view(self._compiled, renderer)
+                self.scene, self.renderer = self._compiled, renderer
                 break
             except ConfigError as exc:
                 if given or draw == START_DRAWS - 1:
@@ -295,4 +319,4 @@ class VisualServoEnv(gym.Env):
         return None
 
     def close(self):
-        self.scene = self.renderer = None
+        self.scene = self.renderer = self._compiled = None

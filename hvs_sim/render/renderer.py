@@ -45,6 +45,7 @@ class GroundTruth:
     camera: CameraPose
     target_depth: float  # z of the target centre in the camera frame (m)
     joint_positions: np.ndarray
+    target_world: np.ndarray | None = None  # (4, 3) the target's corners in the world (m), TL, TR, BR, BL
 
     def as_row(self) -> dict:
         return {
@@ -319,4 +320,5 @@ class Renderer:
         return GroundTruth(
             frame=self.scene.frame_index, time=self.scene.time, center=center, corners=corners,
             occlusion=occ, visible_px=visible, full_px=full, camera=pose,
-            target_depth=float(pose.to_camera(centre_w)[0, 2]), joint_positions=self.scene.joint_positions)
+            target_depth=float(pose.to_camera(centre_w)[0, 2]), joint_positions=self.scene.joint_positions,
+            target_world=corners_w)

@@ -20,10 +20,13 @@ from hvs_sim.scene.world import Scene
 
 
 def iterate_sequence(scenario: Scenario, n_frames: int | None = None, occlusion: bool = True,
-                     rgb: bool = True) -> Iterator[tuple[np.ndarray | None, GroundTruth]]:
-    """Yield (RGB frame or None, ground truth) per frame; the arm, if any, holds its start pose."""
+                     rgb: bool = True, on_start=None) -> Iterator[tuple[np.ndarray | None, GroundTruth]]:
+    """Yield (RGB frame or None, ground truth) per frame; the arm, if any, holds its start pose. `on_start(scene)`
+    is called once the scene is built (what a writer needs of it, e.g. the arm's joint names)."""
     scene = Scene(scenario)
     renderer = Renderer(scene)
+    if on_start is not None:
+        on_start(scene)
     for i in range(scenario.n_frames if n_frames is None else n_frames):
         if i:
             scene.advance()
@@ -55,9 +58,10 @@ def _json_safe(value):
 
 
 def write_sequence(scenario: Scenario, out_dir: Path, fmt: str = "mp4", n_frames: int | None = None,
-                   progress: bool = True) -> dict:
+                   progress: bool = True, on_frame=None, on_start=None) -> dict:
     """Write frames (mp4 or PNGs) and ground_truth.csv / .npz / scenario.json into out_dir, each file whole (written
-    under a temporary name, renamed into place): a render that fails or is interrupted leaves no half video."""
+    under a temporary name, renamed into place): a render that fails or is interrupted leaves no half video.
+    `on_start(scene)` and `on_frame(frame, gt)` (iterate_sequence) let the CLI write a ROS 2 bag beside them."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     total = scenario.n_frames if n_frames is None else n_frames
@@ -73,7 +77,7 @@ def write_sequence(scenario: Scenario, out_dir: Path, fmt: str = "mp4", n_frames
     rows, cams, joints, corners = [], [], [], []
     done = False
     try:
-        _render_frames(scenario, total, progress, writer, out_dir, rows, cams, joints, corners)
+        _render_frames(scenario, total, progress, writer, out_dir, rows, cams, joints, corners, on_frame, on_start)
         done = True
     finally:
         if writer is not None:
@@ -90,10 +94,11 @@ def write_sequence(scenario: Scenario, out_dir: Path, fmt: str = "mp4", n_frames
     return meta
 
 
-def _render_frames(scenario, total, progress, writer, out_dir, rows, cams, joints, corners) -> None:
+def _render_frames(scenario, total, progress, writer, out_dir, rows, cams, joints, corners, on_frame=None,
+                   on_start=None) -> None:
     from tqdm.auto import tqdm
 
-    for frame, gt in tqdm(iterate_sequence(scenario, total), total=total, disable=not progress,
+    for frame, gt in tqdm(iterate_sequence(scenario, total, on_start=on_start), total=total, disable=not progress,
                           desc=f"render {scenario.name}/{scenario.mount}", unit="frame"):
         if writer is not None:
             writer.write(frame)
@@ -103,6 +108,8 @@ def _render_frames(scenario, total, progress, writer, out_dir, rows, cams, joint
             if not cv2.imwrite(str(path), bgr):  # a full disk, a folder gone: never report frames not written
                 raise OutputError(f"could not write frame {path} (disk full or folder not writable); frames up to "
                                   f"{gt.frame - 1} are written")
+        if on_frame is not None:
+            on_frame(frame, gt)
         rows.append(gt.as_row())
         cams.append(gt.camera.matrix())
         joints.append(gt.joint_positions)

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from contextlib import contextmanager
 
 import mujoco
 import numpy as np
+from absl import logging as absl_logging
 from dm_control import mjcf
 from dm_control.utils import inverse_kinematics
 
@@ -345,6 +347,17 @@ class Scene:
         kv = self.physics.bind(self.rig.actuators).gainprm[:, 0]
         return m.dof_frictionloss[dofs] / kv * np.tanh(cmd / 1e-3)
 
+    def restart(self, scenario: Scenario) -> None:
+        """A new episode of `scenario` on this compiled model and its rendering context: the arm's IK to the new start
+        pose and the seed's shake, at a fraction of a new Scene's cost (the gym env's reset). Refused unless
+        model_key says a new Scene would build the same model."""
+        if model_key(scenario) != model_key(self.scenario):
+            raise ConfigError("restart() keeps the compiled model: the new scenario must differ only in its start offset "
+                              "(and in its seed where the seed draws nothing of the model); build a new Scene")
+        self.scenario = scenario
+        self.shake = ShakeModel.sample(scenario.seed, scenario.shake)
+        self.reset()
+
     def reset(self) -> None:
         self.resets = getattr(self, "resets", -1) + 1  # renderers key their per-frame state on (resets, frame)
         self.frame_index = 0
@@ -407,6 +420,21 @@ def _texture(name: str, width: int, height: int, seed: int) -> np.ndarray:
     return img
 
 
+def seed_draws_model(scenario: Scenario) -> bool:
+    """Whether the scenario's seed draws part of its compiled model: the people's looks, or per-seed textures on the
+    wall or as the target (wall_pictures). A flag wall without people is the same model for every seed."""
+    textured_target = scenario.target_texture is not None and not scenario.target_image
+    textured_wall = scenario.wall != "flags" and not scenario.wall_images
+    return bool(scenario.occluders) or textured_target or textured_wall
+
+
+def model_key(scenario: Scenario) -> Scenario:
+    """What a scenario's compiled model is built from: all of it but the start offset, and the seed only where it draws
+    part of the model. Two scenarios with one key can share a Scene (Scene.restart)."""
+    key = dataclasses.replace(scenario, start_offset=(0.0,) * len(scenario.start_offset))
+    return key if seed_draws_model(scenario) else dataclasses.replace(key, seed=0)
+
+
 def wall_pictures(scenario: Scenario) -> tuple[str | np.ndarray, list | None]:
     """(target, the 14 other slots) for FlagWall: flag names or RGB images, a pure function of the scenario.
 
@@ -450,9 +478,14 @@ def _solve_ik(root, physics, rig: ArmRig, position, R_cv, q0) -> np.ndarray:
         joints.qpos = q0
     names = [j.full_identifier for j in rig.joints]
     quat = mat_to_quat(opencv_to_mujoco(R_cv))
-    res = inverse_kinematics.qpos_from_site_pose(
-        scratch, rig.camera_site.full_identifier, target_pos=position, target_quat=quat,
-        joint_names=names, tol=1e-10, max_steps=2000, inplace=True, progress_thresh=IK_PROGRESS_THRESH)
+    level = absl_logging.get_verbosity()
+    absl_logging.set_verbosity(absl_logging.ERROR)  # a failed solve is an answer here (restarts, a refusal), not news
+    try:
+        res = inverse_kinematics.qpos_from_site_pose(
+            scratch, rig.camera_site.full_identifier, target_pos=position, target_quat=quat,
+            joint_names=names, tol=1e-10, max_steps=2000, inplace=True, progress_thresh=IK_PROGRESS_THRESH)
+    finally:
+        absl_logging.set_verbosity(level)
     if not res.success and res.err_norm > 1e-5:
         raise ConfigError(f"camera pose {np.round(position, 3).tolist()} is out of the arm's reach (IK error {res.err_norm:.2g})")
     q = scratch.bind(rig.joints).qpos.copy()

@@ -6,12 +6,17 @@ Topics, every message stamped with the simulation time of its step (`StepRecord.
 | topic | type | what |
 |---|---|---|
 | `/camera/image/compressed` | sensor_msgs/CompressedImage | the camera's frame (JPEG), frame `camera_optical` |
-| `/camera/camera_info` | sensor_msgs/CameraInfo | K and the image size (plumb-bob model, no distortion: the renderer's pinhole) |
+| `/camera/camera_info` | sensor_msgs/CameraInfo | K, the image size and the lens's distortion (plumb-bob: OpenCV's k1, k2, p1, p2, k3; zeros without one) |
 | `/joint_states` | sensor_msgs/JointState | the arm's joint angles and velocities (none for a hand-held camera) |
 | `/tf` | tf2_msgs/TFMessage | world → camera_optical (OpenCV axes: x right, y down, z forward) |
 | `/tf_static` | tf2_msgs/TFMessage | world → target (the target's centre; x along its top edge, y down its left edge) |
 | `/cmd_twist` | geometry_msgs/TwistStamped | the commanded camera twist, in camera_optical |
 | `/corners/tracked`, `/corners/true`, `/corners/desired` | geometry_msgs/PolygonStamped | the four corners in image pixels (x, y, 0), frame `camera_image` |
+
+`hvs-sim scene --mcap` (SceneBag) writes the image, camera_info, joint_states (arm mount; positions), `/tf` with
+world → camera_optical and world → target at every frame (the wall may move), `/corners/true` and `/target/occlusion`
+(std_msgs/Float32, the share of the target hidden). `hvs-sim track --mcap` (FootageBag): image, `/corners/tracked`
+and `/track/mode` (std_msgs/String).
 """
 
 from __future__ import annotations
@@ -48,6 +53,16 @@ def target_frame(corners_world: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.column_stack([x, y, np.cross(x, y)]), c.mean(axis=0)
 
 
+# `hvs-sim scene --mcap`: an open-loop render with its truth; no command, no tracker
+SCENE_TOPICS = {
+    "/camera/image/compressed": "sensor_msgs/msg/CompressedImage",
+    "/camera/camera_info": "sensor_msgs/msg/CameraInfo",
+    "/joint_states": "sensor_msgs/msg/JointState",
+    "/tf": "tf2_msgs/msg/TFMessage",
+    "/corners/true": "geometry_msgs/msg/PolygonStamped",
+    "/target/occlusion": "std_msgs/msg/Float32",
+}
+
 # `hvs-sim track --mcap`: footage has no K, joints or twist; the tracker's mode as text
 TRACK_TOPICS = {
     "/camera/image/compressed": "sensor_msgs/msg/CompressedImage",
@@ -58,9 +73,12 @@ TRACK_TOPICS = {
 
 class _Bag:
     """A new bag folder `path` (rosbags refuses an existing one) with one connection per topic. `close()` finishes
-    the bag's index and metadata; a bag not closed is not readable, so callers write it under a temporary name."""
+    the bag's index and metadata; a bag not closed is not readable, so callers write it under a temporary name and
+    give the folder's final name as `name`: the MCAP file inside, which rosbags names after the folder, is renamed
+    after it on close (a hidden temporary-looking file is what a user would otherwise open in Foxglove)."""
 
-    def __init__(self, path: Path, topics: dict[str, str]):
+    def __init__(self, path: Path, topics: dict[str, str], name: str | None = None):
+        self.path, self.name = Path(path), name
         from rosbags.rosbag2 import StoragePlugin, Writer
         from rosbags.typesys import Stores, get_typestore
 
@@ -102,15 +120,67 @@ class _Bag:
         self._write("/camera/image/compressed",
                     self.t["sensor_msgs/msg/CompressedImage"](header=header, format="jpeg", data=data), ns)
 
+    def _camera_info(self, header, K: np.ndarray, size: tuple[int, int], distortion=()):
+        w, h = size
+        P = np.zeros((3, 4))
+        P[:, :3] = K
+        d = np.zeros(5)
+        d[:len(distortion)] = distortion  # OpenCV's (k1, k2, p1, p2[, k3]), ROS's plumb_bob order
+        roi = self.t["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
+        return self.t["sensor_msgs/msg/CameraInfo"](
+            header=header, height=h, width=w, distortion_model="plumb_bob", d=d, k=np.asarray(K, float).ravel().copy(),
+            r=np.eye(3).ravel(), p=P.ravel(), binning_x=0, binning_y=0, roi=roi)
+
+    def _joint_state(self, seconds: float, names, q, qdot=None):
+        header, _ = self._header(seconds, "")
+        return self.t["sensor_msgs/msg/JointState"](
+            header=header, name=list(names), position=np.asarray(q, float),
+            velocity=np.zeros(0) if qdot is None else np.asarray(qdot, float), effort=np.zeros(0))
+
     def close(self) -> None:
         self.writer.close()
+        if self.name and self.name != self.path.name:
+            old, new = f"{self.path.name}.mcap", f"{self.name}.mcap"
+            (self.path / old).rename(self.path / new)
+            meta = self.path / "metadata.yaml"
+            meta.write_text(meta.read_text().replace(old, new))
+
+
+class SceneBag(_Bag):
+    """`hvs-sim scene --mcap`: each frame of an open-loop render with its truth (module docstring)."""
+
+    def __init__(self, path: Path, K: np.ndarray, width: int, height: int, distortion=(), name: str | None = None):
+        super().__init__(path, SCENE_TOPICS, name)
+        self.K, self.size, self.distortion = np.asarray(K, float), (int(width), int(height)), tuple(distortion)
+        self.joint_names: list[str] = []
+
+    def start(self, scene) -> None:
+        """The scene once built: the arm's joint names (none for a hand-held camera)."""
+        if scene.is_arm:
+            self.joint_names = [j.name for j in scene.rig.joints]
+
+    def log(self, frame: np.ndarray, gt) -> None:
+        """One frame and its GroundTruth."""
+        t = self.t
+        cam_header, ns = self._header(gt.time, CAMERA)
+        self._image(cam_header, ns, frame)
+        self._write("/camera/camera_info", self._camera_info(cam_header, self.K, self.size, self.distortion), ns)
+        if self.joint_names:
+            self._write("/joint_states", self._joint_state(gt.time, self.joint_names, gt.joint_positions), ns)
+        world, _ = self._header(gt.time, WORLD)
+        transforms = [self._transform(world, CAMERA, gt.camera.R, gt.camera.t),
+                      self._transform(world, TARGET, *target_frame(gt.target_world))]
+        self._write("/tf", t["tf2_msgs/msg/TFMessage"](transforms=transforms), ns)
+        image, _ = self._header(gt.time, IMAGE)
+        self._write("/corners/true", self._polygon(image, gt.corners), ns)
+        self._write("/target/occlusion", t["std_msgs/msg/Float32"](data=float(np.nan_to_num(gt.occlusion))), ns)
 
 
 class FootageBag(_Bag):
     """`hvs-sim track --mcap`: each frame (JPEG), the tracked corners and the mode, stamped at frame / fps."""
 
-    def __init__(self, path: Path, fps: float):
-        super().__init__(path, TRACK_TOPICS)
+    def __init__(self, path: Path, fps: float, name: str | None = None):
+        super().__init__(path, TRACK_TOPICS, name)
         self.fps = float(fps)
 
     def log(self, index: int, frame: np.ndarray, corners: np.ndarray, mode: str) -> None:
@@ -125,20 +195,10 @@ class BagRecorder(_Bag):
     """`hvs-sim run --mcap`: a run's steps (module docstring)."""
 
     def __init__(self, path: Path, K: np.ndarray, width: int, height: int, joint_names=(),
-                 target: tuple[np.ndarray, np.ndarray] | None = None):
-        super().__init__(path, TOPICS)
+                 target: tuple[np.ndarray, np.ndarray] | None = None, distortion=(), name: str | None = None):
+        super().__init__(path, TOPICS, name)
         self.K, self.size, self.joint_names = np.asarray(K, float), (int(width), int(height)), list(joint_names)
-        self.target = target
-
-    def _camera_info(self, header):
-        w, h = self.size
-        K = self.K
-        P = np.zeros((3, 4))
-        P[:, :3] = K
-        roi = self.t["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
-        return self.t["sensor_msgs/msg/CameraInfo"](
-            header=header, height=h, width=w, distortion_model="plumb_bob", d=np.zeros(5), k=K.ravel().copy(),
-            r=np.eye(3).ravel(), p=P.ravel(), binning_x=0, binning_y=0, roi=roi)
+        self.target, self.distortion = target, tuple(distortion)
 
     def log_step(self, r) -> None:
         """One StepRecord (its frame, when the loop kept it)."""
@@ -150,12 +210,9 @@ class BagRecorder(_Bag):
                                                                                                *self.target)]), ns)
         if r.frame is not None:
             self._image(cam_header, ns, r.frame)
-        self._write("/camera/camera_info", self._camera_info(cam_header), ns)
+        self._write("/camera/camera_info", self._camera_info(cam_header, self.K, self.size, self.distortion), ns)
         if self.joint_names:
-            joints, _ = self._header(r.time, "")
-            self._write("/joint_states", t["sensor_msgs/msg/JointState"](
-                header=joints, name=self.joint_names, position=np.asarray(r.q, float),
-                velocity=np.asarray(r.qdot, float), effort=np.zeros(0)), ns)
+            self._write("/joint_states", self._joint_state(r.time, self.joint_names, r.q, r.qdot), ns)
         world, _ = self._header(r.time, WORLD)
         self._write("/tf", t["tf2_msgs/msg/TFMessage"](transforms=[self._transform(world, CAMERA, r.camera.R,
                                                                                    r.camera.t)]), ns)
