@@ -5,6 +5,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 TEST_STAMP := $(VENV)/.test-installed-stamp
+ROBOSUITE := 1.5.2  # hvs_sim/scene/arms.py ROBOSUITE_VERSION
 
 .PHONY: install install-test demo test
 
@@ -14,6 +15,8 @@ $(STAMP): pyproject.toml
 	# CPU torch first (a local wheel here); the package pins the same version, so nothing else is pulled
 	$(PY) -m pip install --quiet torch==2.13.0
 	$(PY) -m pip install --quiet -e .
+	# the Panda and UR5e model files (MJCF + meshes, MIT): read as files, never imported, so without robosuite's deps
+	$(PY) -m pip install --quiet --no-deps robosuite==$(ROBOSUITE)
 	touch $(STAMP)
 
 $(TEST_STAMP): $(STAMP) pyproject.toml tests/plugins/pyproject.toml

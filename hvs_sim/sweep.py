@@ -71,7 +71,9 @@ def accepted_keys(kind: str) -> dict[str, object]:
     if kind == "track":
         keys.update(tracker=TRACKER_NAMES, mount=MOUNTS, frames="int>=2")
     else:
-        keys.update(tracker=LOOP_TRACKERS, steps="int>=1", **_loop_fields())
+        from hvs_sim.scene.arms import ARM_NAMES
+
+        keys.update(tracker=LOOP_TRACKERS, steps="int>=1", arm=ARM_NAMES, **_loop_fields())
     return keys
 
 
@@ -197,7 +199,8 @@ def _scenario(params: dict, mount: str):
     if mount == "arm":  # the start pose as the servo benchmark draws it (reachable, target in view)
         from hvs_sim.bench.servo import episode_scenario
 
-        return episode_scenario(params["scenario"], params["seed"], camera=cam, people=params["people"])
+        return episode_scenario(params["scenario"], params["seed"], camera=cam, people=params["people"],
+                                arm=params.get("arm", "jaco"))  # no default in DEFAULTS: earlier task ids stay
     return make_scenario(params["scenario"], mount=mount, seed=params["seed"], camera=cam, people=params["people"])
 
 

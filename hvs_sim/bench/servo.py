@@ -55,6 +55,7 @@ class ServoBenchConfig:
     workers: int = 1
     camera: str = REALISTIC_PRESET  # camera model of every episode (hvs_sim.camera_model.SENSOR_PRESETS)
     people: str = "textured"  # how the people look ("plain": the flat figures of the earlier benchmarks)
+    arm: str = "jaco"  # the arm the camera rides on (hvs_sim.scene.arms.ARMS)
     seeds: tuple[int, ...] | None = None  # explicit episode seeds (then `episodes` and `seed0` are not used)
     damping: float | None = None  # IBVSConfig.damping of every episode (None: the loop's default)
     template_from: str | None = None  # LoopConfig.template_from of every episode (None: the loop's default)
@@ -74,8 +75,10 @@ class ServoBenchConfig:
 
         if not self.trackers:
             raise ConfigError("the servo benchmark needs at least one method")
+        from hvs_sim.scene.arms import ARM_NAMES
+
         for what, values, accepted in (("scenario", self.scenarios, SCENARIO_NAMES),
-                                       ("people style", (self.people,), PEOPLE_STYLES)):
+                                       ("people style", (self.people,), PEOPLE_STYLES), ("arm", (self.arm,), ARM_NAMES)):
             if not values:
                 raise ConfigError(f"the servo benchmark needs at least one {what}; accepted: {', '.join(accepted)}")
             for v in values:
@@ -201,6 +204,12 @@ def episode_offset(seed: int, standoff: float = 0.8, draw: int = 0, tilt: float 
 def episode_scenario(scen_name: str, seed: int, tilt: float = TILT_MAX, **overrides):
     """The episode's scenario with the first drawn start pose that the arm reaches and from which
     the target is fully in view (the same for every method of that seed)."""
+    return episode_start(scen_name, seed, tilt, **overrides)[0]
+
+
+def episode_start(scen_name: str, seed: int, tilt: float = TILT_MAX, **overrides):
+    """(episode_scenario, the draws it took): draws before the last are start poses the arm could not reach or
+    from which the target was not in view, which the benchmark counts per arm."""
     from hvs_sim.loop import check_start_pose
     from hvs_sim.scene.scenarios import make_scenario
 
@@ -210,7 +219,7 @@ def episode_scenario(scen_name: str, seed: int, tilt: float = TILT_MAX, **overri
         scen = dataclasses.replace(base, start_offset=episode_offset(seed, base.standoff, draw, tilt))
         try:
             check_start_pose(scen)
-            return scen
+            return scen, draw + 1
         except ConfigError as exc:
             last = exc
     raise ConfigError(f"no usable start pose in {MAX_DRAWS} draws for episode {seed}: {last}")
@@ -226,11 +235,11 @@ def _episode(args):
     from hvs_sim.scene.scenarios import CameraConfig
 
     (scen_name, method, seed, steps, extra, keep, camera, people, damping, template_from, inset, goal_frames, alpha,
-     size, tilt, run_as) = args
+     size, tilt, run_as, arm) = args
     torch.set_num_threads(1 if os.environ.get("HVS_WORKERS", "1") != "1" else 2)
     tracker, warp, controller, policy = parse_method(run_as)
-    scen = episode_scenario(scen_name, seed, tilt,
-                            camera=CameraConfig(sensor=camera, width=size[0], height=size[1]), people=people)
+    scen, draws = episode_start(scen_name, seed, tilt, camera=CameraConfig(sensor=camera, width=size[0], height=size[1]),
+                                people=people, arm=arm)
     n = steps if steps else scen.n_frames + extra
     tracked = tracker not in (plugins.GROUND_TRUTH, plugins.NO_TRACKER)
     goal_template = tracked and template_view(template_from, tracked and warp == "homography") == "goal"
@@ -243,6 +252,7 @@ def _episode(args):
     summary["method"] = method
     summary["episode_seed"] = seed
     summary["start_offset"] = list(scen.start_offset)
+    summary["arm"], summary["start_draws"] = arm, draws
     trace = None
     if keep:
         trace = [{"time": r.time, "error_px": r.error_px, "gt_features": r.gt_features.tolist(), "desired": r.desired.tolist(),
@@ -303,7 +313,7 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
     run_as = {m: portable_method(m) if config.workers > 1 else m for m in config.trackers}
     jobs = [(s, t, seed, config.steps, config.extra_steps, seed == seeds[0], config.camera, config.people, config.damping,
              config.template_from, config.roi_inset_px, config.goal_frames, config.feature_filter,
-             (config.width, config.height), np.radians(config.tilt_deg), run_as[t])
+             (config.width, config.height), np.radians(config.tilt_deg), run_as[t], config.arm)
             for s in config.scenarios for t in config.trackers for seed in seeds]
     os.environ["HVS_WORKERS"] = str(config.workers)
     episodes, traces = {}, {}

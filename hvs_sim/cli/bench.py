@@ -20,7 +20,7 @@ def _check_bench_options(args) -> None:
             if value:
                 raise ConfigError(f"{flag} applies to `bench track` only (the servo benchmark's camera is on the arm)")
         return
-    for flag, value in (("--episodes", args.episodes), ("--damping", args.damping),
+    for flag, value in (("--episodes", args.episodes), ("--damping", args.damping), ("--arm", args.arm),
                         ("--template-from", args.template_from), ("--roi-inset", args.roi_inset),
                         ("--goal-frames", args.goal_frames), ("--feature-filter", args.feature_filter),
                         ("--extra-steps", args.extra_steps)):
@@ -187,7 +187,7 @@ def _cmd_bench_sim(args) -> int:
             raise ConfigError("--extra-steps and --smoke disagree: a smoke run has its own 30 steps; give one")
         for opt, field in (("damping", "damping"), ("template_from", "template_from"), ("roi_inset", "roi_inset_px"),
                            ("goal_frames", "goal_frames"), ("feature_filter", "feature_filter"),
-                           ("extra_steps", "extra_steps")):  # servo-only settings the user gave
+                           ("extra_steps", "extra_steps"), ("arm", "arm")):  # servo-only settings the user gave
             if getattr(args, opt) is not None:
                 given[field] = getattr(args, opt)
         suite = getattr(args, "suite_obj", None)
@@ -283,4 +283,8 @@ def add_bench_parser(sub) -> None:
     p.add_argument("--people", default=None, choices=PEOPLE_STYLES,
                    help="sim imagery: how the people look (default textured; plain = the flat figures of earlier "
                         "benchmarks)")
+    from hvs_sim.scene.arms import ARM_NAMES
+
+    p.add_argument("--arm", default=None, choices=ARM_NAMES,
+                   help="servo only: the arm the camera rides on (default jaco; a suite's own episodes on another arm)")
     p.set_defaults(func=cmd_bench)

@@ -43,7 +43,12 @@ def _scenario_from_args(args):
             overrides[key] = getattr(args, key)
     if getattr(args, "shadows", False):
         overrides["shadows"] = True
-    return make_scenario(args.scenario, mount=getattr(args, "mount", "arm"), seed=args.seed, **overrides)
+    mount = getattr(args, "mount", "arm")
+    if args.arm is not None:
+        if mount != "arm":
+            raise ConfigError(f"--arm {args.arm} puts the camera on an arm: add --mount arm")
+        overrides["arm"] = args.arm
+    return make_scenario(args.scenario, mount=mount, seed=args.seed, **overrides)
 
 
 def _add_scene_args(p: argparse.ArgumentParser, mount: bool) -> None:
@@ -60,6 +65,10 @@ def _add_scene_args(p: argparse.ArgumentParser, mount: bool) -> None:
     if mount:  # `run` is closed-loop: its camera is on the arm, so it offers no --mount
         p.add_argument("--mount", default="handheld", choices=("handheld", "arm"), help="where the camera is")
     p.add_argument("--seed", type=int, default=0, help="seeds the person, the shake, the sensor noise")
+    from hvs_sim.scene.arms import ARM_NAMES, DEFAULT_ARM
+
+    p.add_argument("--arm", default=None, choices=ARM_NAMES,
+                   help=f"the arm the camera rides on (default {DEFAULT_ARM}; hvs-sim scenes --list shows each)")
     p.add_argument("--camera", default="ideal", choices=SENSOR_NAMES,
                    help="camera model: exposure, blur, noise, JPEG, distortion (default: ideal = clean renders)")
     p.add_argument("--target", default=None, help="target: a flag name or a natural texture name (default: the "

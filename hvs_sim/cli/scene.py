@@ -85,6 +85,19 @@ def cmd_scenes(args) -> int:
               f"exposure {m.exposure_ms:g} ms, {m.white_e:g} e- from white, read noise {m.read_noise_e:g} e-, "
               f"AE target {m.ae_target:g}, JPEG q{m.jpeg_quality}, light dim {m.light_dim:g} / flicker {m.light_flicker:g}"
               + (f", distortion k1 {m.distortion[0]:g}" if m.distortion else "")))
+    from hvs_sim.scene.arms import ARM_NAMES, arm_summary
+
+    print("arms (--arm, with the camera on the arm):")
+    for name in ARM_NAMES:
+        try:
+            a = arm_summary(name)
+        except ConfigError as exc:  # robosuite's model files missing: say how to get them
+            print(f"  {name:16s} not available: {exc}")
+            continue
+        limits = " ".join("free" if lim is None else f"{lim[0]:.0f}…{lim[1]:.0f}" for lim in a["joint_limits_deg"])
+        speeds = " ".join(f"{v:.0f}" for v in a["speed_limits_deg_s"])
+        print(f"  {name:16s} {a['label']}, reach {a['reach_m']:.3f} m, joint limits (°) {limits}; speed limits (°/s) "
+              f"{speeds}; model: {a['source']}")
     print("wall sets (--wall): " + ", ".join(WALL_SETS))
     for name, members in TEXTURE_SETS.items():
         print(f"  {name:16s} {', '.join(members)}")

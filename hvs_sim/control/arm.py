@@ -21,6 +21,9 @@ class ArmLimits:
     q_upper: np.ndarray  # (n,)
     margin: float = 0.1  # rad: inside this distance to a limit, motion toward it is stopped
     damping: float = 0.02  # DLS damping μ
+    # a redundant arm (more than six joints): its null space pulls each limited joint toward the middle of its range,
+    # this fast (rad/s) at a limit (ViSP's joint-limit avoidance as a secondary task); no effect on six joints
+    null_gain: float = 0.5
 
 
 @dataclass
@@ -31,7 +34,8 @@ class JointCommand:
 
 
 def twist_to_joint_velocities(J: np.ndarray, twist_world: np.ndarray, q: np.ndarray, limits: ArmLimits) -> JointCommand:
-    """q̇ = Jᵀ (J Jᵀ + μ² I)⁻¹ ξ, then position-limit blocking and uniform velocity scaling.
+    """q̇ = J⁺ ξ + (I − J⁺J) q̇₀ with J⁺ = Jᵀ (J Jᵀ + μ² I)⁻¹, then position-limit blocking and uniform velocity
+    scaling. q̇₀ (more than six joints only) moves the arm along its self-motion toward the middle of its joint ranges.
 
     J: (6, n) world-frame Jacobian [linear; angular] of the camera frame; twist_world: (6,).
     """
@@ -42,6 +46,12 @@ def twist_to_joint_velocities(J: np.ndarray, twist_world: np.ndarray, q: np.ndar
         raise InputError("Jacobian, twist and joint positions must be finite (a NaN would reach the actuators)")
     mu2 = limits.damping ** 2
     qdot = J.T @ np.linalg.solve(J @ J.T + mu2 * np.eye(6), twist_world)
+    if len(q) > 6 and limits.null_gain > 0:
+        J_pinv = np.linalg.pinv(J)  # undamped: the projector must leave the camera's motion exactly as it is
+        limited = np.isfinite(limits.q_lower) & np.isfinite(limits.q_upper)
+        half = np.where(limited, (limits.q_upper - limits.q_lower) / 2, 1.0)
+        mid = np.where(limited, (limits.q_upper + limits.q_lower) / 2, q)
+        qdot = qdot + (np.eye(len(q)) - J_pinv @ J) @ (limits.null_gain * (mid - q) / half)
     blocked = []
     for i in range(len(q)):
         if (q[i] < limits.q_lower[i] + limits.margin and qdot[i] < 0) or (q[i] > limits.q_upper[i] - limits.margin and qdot[i] > 0):

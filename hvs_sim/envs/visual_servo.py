@@ -25,6 +25,7 @@ and compiling the scene and its rendering context again. With people or per-seed
 new look, hence a new model; `appearance="fixed"` keeps the look drawn at the first reset (or the last reset with a
 seed) so those episodes restart too, at the price of less visual variety.
 
+arm: "jaco" (6 joints), "panda" (7) or "ur5e" (6): the joints' observation and a joint action have the arm's size.
 Defaults worth knowing: scenario "clear" (no person; pass e.g. scenario="walk_by"), a 160×120
 image, the ideal camera. An action must have the action space's shape and finite values (a NaN
 would poison the physics); values outside [−1, 1] are clipped, as the space says.
@@ -74,7 +75,7 @@ class VisualServoEnv(gym.Env):
                  converge_px: float = 1.0, hold_steps: int = 5, max_linear: float = 0.1, max_angular: float = 0.5,
                  camera: str = "ideal", reward: str = "pixels", obs_mode: str = "image", joints: str = "wrapped",
                  tracker: str = "ground_truth", render_size: tuple[int, int] = (480, 360),
-                 appearance: str = "per_episode"):
+                 appearance: str = "per_episode", arm: str = "jaco"):
         """camera: the camera model of the observations (hvs_sim.camera_model.SENSOR_PRESETS), e.g.
         "phone_handheld" for exposure changes, blur, noise and JPEG as a real camera gives them.
         tracker: with obs_mode "features", whose corners the observation holds: "ground_truth", a tracker of the
@@ -112,7 +113,8 @@ class VisualServoEnv(gym.Env):
         self.obs_mode, self.joint_obs, self.tracker_name = obs_mode, joints, tracker
         self.render_size = tuple(render_size)
         self.scenario_name = scenario
-        self.base = make_scenario(scenario, mount="arm", camera=CameraConfig(width=width, height=height, sensor=camera))
+        self.base = make_scenario(scenario, mount="arm", camera=CameraConfig(width=width, height=height, sensor=camera),
+                                  arm=arm)
         self.tracker = None
         self.max_offset, self.max_roll = max_offset, max_roll
         self.converge_px, self.hold_steps = converge_px, hold_steps
@@ -121,7 +123,9 @@ class VisualServoEnv(gym.Env):
         self.appearance, self._look_seed = appearance, None
         self._compiled = None  # the last episode's Scene: its model and rendering context, kept for restart
         self.model_builds = 0  # scenes built and compiled (the rest of the resets restarted one)
-        n = 6
+        from hvs_sim.scene.arms import ARMS
+
+        n = ARMS[arm].dof  # joints in the observation and in a joint action
         # velocities well inside ±10 rad/s (actuators stop at < 1 rad/s)
         if joints == "wrapped":  # angles wrapped to [−π, π)
             lo, hi = np.r_[[-np.pi] * n, [-10.0] * n], np.r_[[np.pi] * n, [10.0] * n]
@@ -200,7 +204,7 @@ class VisualServoEnv(gym.Env):
             raise InputError(f"unknown reset option(s) {', '.join(map(str, unknown))}; accepted: {', '.join(RESET_OPTIONS)}")
         cam = self.base.camera
         try:
-            base = make_scenario(options.get("scenario", self.scenario_name), mount="arm",
+            base = make_scenario(options.get("scenario", self.scenario_name), mount="arm", arm=self.base.arm,
                                  camera=CameraConfig(width=cam.width, height=cam.height,
                                                      sensor=options.get("camera", cam.sensor)),
                                  **({"people": options["people"]} if "people" in options else {}))

@@ -120,3 +120,7 @@ class ArmRig:
         self.joints = self.arm.joints
         self.actuators = self.arm.actuators
 
+    @property
+    def mjcf_model(self):
+        return self.arm.mjcf_model
+

@@ -142,10 +142,15 @@ class Scenario:
     wall: str = "flags"
     wall_images: str | None = None
     people: str = "textured"
+    arm: str = "jaco"  # scene.arms.ARMS: the arm the camera rides on with mount="arm"
 
     def __post_init__(self):
         if self.mount not in MOUNTS:
             raise choice_error("mount", self.mount, MOUNTS)
+        from hvs_sim.scene.arms import ARM_NAMES
+
+        if self.arm not in ARM_NAMES:
+            raise choice_error("arm", self.arm, ARM_NAMES)
         if self.people not in PEOPLE_STYLES:
             raise choice_error("people style", self.people, PEOPLE_STYLES)
         if self.target_flag not in FLAG_NAMES:

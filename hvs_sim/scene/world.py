@@ -15,9 +15,10 @@ from dm_control.utils import inverse_kinematics
 
 from hvs_sim.errors import ConfigError, InputError
 from hvs_sim.geometry import mat_to_quat, mujoco_to_opencv, offset_pose, opencv_to_mujoco, rotation_vector
+from hvs_sim.scene.arms import make_arm_rig
 from hvs_sim.scene.flag_art import FLAG_NAMES
 from hvs_sim.scene.images import TARGET_MAX_ASPECT, crop_to_aspect, list_images, load_image
-from hvs_sim.scene.parts import ArmRig, FlagWall, HandheldRig, Person
+from hvs_sim.scene.parts import FlagWall, HandheldRig, Person
 from hvs_sim.scene.scenarios import MAX_TARGET_WIDTH, Scenario, ShakeModel, occluder_lateral
 from hvs_sim.scene.textures import TEXTURE_SETS, natural_texture
 
@@ -27,6 +28,7 @@ REFERENCE_POSITION = np.array([0.40, 0.0, 1.30])
 IK_CONTINUATION_STEPS = 4  # IK solves from the reference pose to the start pose (stays on the home branch)
 IK_PROGRESS_THRESH = 1e4  # dm_control stops an IK whose step is this many times its error drop; near the
 # wrist singularity progress is slow but real, and the default (20) gave up on reachable poses
+IK_LIMIT_STEPS, IK_LIMIT_DAMPING, IK_LIMIT_INSET = 400, 1e-3, 1e-3  # a redundant arm's IK brought into its limits
 IK_RESTARTS, IK_HOME_SEEDS, IK_RESTART_SEED = 24, 24, 7  # seeded IK restarts: start pose when continuation fails, home
 WALK_BOB_M, WALK_STEP_HZ = 0.01, 1.0  # a walking person's vertical bob (m) and its rate
 ROOM_WALL_BEHIND_M = 0.25  # the room's back wall behind the flag board (m)
@@ -78,7 +80,7 @@ class Scene:
         self.wall = FlagWall(root, *wall_pictures(scenario), target_width=scenario.target_width)
         self.people = [Person(root, i, rng, style=scenario.people) for i in range(len(scenario.occluders))]
         if scenario.mount == "arm":
-            self.rig = ArmRig(root, cam.fovy)
+            self.rig = make_arm_rig(root, scenario.arm, cam.fovy)
         else:
             self.rig = HandheldRig(root, cam.fovy)
         self.camera = self.rig.camera
@@ -96,7 +98,7 @@ class Scene:
 
     @property
     def is_arm(self) -> bool:
-        return isinstance(self.rig, ArmRig)
+        return not isinstance(self.rig, HandheldRig)
 
     def wall_position(self, t: float) -> np.ndarray:
         ay, az, f = self.scenario.wall_motion
@@ -298,7 +300,7 @@ class Scene:
     def _arm_mesh_geoms(self) -> list:
         if not self.is_arm:
             return []
-        return [g for g in self.rig.arm.mjcf_model.find_all("geom")
+        return [g for g in self.rig.mjcf_model.find_all("geom")
                 if int(self.physics.bind(g).type) == mujoco.mjtGeom.mjGEOM_MESH]
 
     def arm_meshes(self) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
@@ -471,7 +473,7 @@ def wall_pictures(scenario: Scenario) -> tuple[str | np.ndarray, list | None]:
     return target, others
 
 
-def _solve_ik(root, physics, rig: ArmRig, position, R_cv, q0) -> np.ndarray:
+def _solve_ik(root, physics, rig, position, R_cv, q0) -> np.ndarray:
     scratch = physics.copy(share_model=True)
     joints = scratch.bind(rig.joints)
     if q0 is not None:
@@ -491,7 +493,45 @@ def _solve_ik(root, physics, rig: ArmRig, position, R_cv, q0) -> np.ndarray:
     q = scratch.bind(rig.joints).qpos.copy()
     limited = physics.model.jnt_limited[physics.bind(rig.joints).element_id].astype(bool)
     lo, hi = np.asarray(physics.bind(rig.joints).range, float).T
+    if len(q) > 6 and np.any(limited & ((q < lo) | (q > hi))):  # a redundant arm: move along its self-motion
+        q = _into_limits(scratch, rig, q, position, quat, np.where(limited, lo, -np.inf), np.where(limited, hi, np.inf))
     if np.any(limited & ((q < lo) | (q > hi))):
+        raise ConfigError(f"camera pose {np.round(position, 3).tolist()} needs an arm configuration outside the "
+                          "joint limits")
+    return q
+
+
+def _into_limits(scratch, rig, q, position, quat, lo, hi, steps: int = IK_LIMIT_STEPS) -> np.ndarray:
+    """The IK answer of a redundant arm moved along its self-motion into its joint limits: damped least squares on
+    the pose error, the null space pulling each joint toward the middle of its range, the joints clipped just inside
+    their limits. dm_control's IK ignores limits, and a 7-joint arm's first answer is usually outside them; its
+    null space has room to come back in with the camera where it was. Returns q (checked by the caller)."""
+    m, d = scratch.model.ptr, scratch.data.ptr
+    site = scratch.bind(rig.camera_site).element_id
+    dofs = scratch.bind(rig.joints).dofadr
+    qpos = scratch.bind(rig.joints)
+    mid = np.where(np.isfinite(lo + hi), (lo + hi) / 2, q)
+    span = np.where(np.isfinite(hi - lo), hi - lo, 2 * np.pi)
+    inside_lo, inside_hi = lo + IK_LIMIT_INSET, hi - IK_LIMIT_INSET
+    jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+    target_R = np.zeros(9)
+    mujoco.mju_quat2Mat(target_R, np.asarray(quat, float))
+    target_R = target_R.reshape(3, 3)
+    for _ in range(steps):
+        qpos.qpos = q
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_comPos(m, d)
+        R = d.site_xmat[site].reshape(3, 3)
+        err = np.concatenate([position - d.site_xpos[site], 0.5 * (np.cross(R[:, 0], target_R[:, 0]) +
+                              np.cross(R[:, 1], target_R[:, 1]) + np.cross(R[:, 2], target_R[:, 2]))])
+        mujoco.mj_jacSite(m, d, jacp, jacr, site)
+        J = np.vstack([jacp[:, dofs], jacr[:, dofs]])
+        J_pinv = J.T @ np.linalg.inv(J @ J.T + IK_LIMIT_DAMPING ** 2 * np.eye(6))
+        pull = -(q - mid) / span ** 2
+        q = np.clip(q + J_pinv @ err + (np.eye(len(q)) - J_pinv @ J) @ pull, inside_lo, inside_hi)
+    qpos.qpos = q
+    mujoco.mj_kinematics(m, d)
+    if np.linalg.norm(position - d.site_xpos[site]) > 1e-6:
         raise ConfigError(f"camera pose {np.round(position, 3).tolist()} needs an arm configuration outside the "
                           "joint limits")
     return q
@@ -511,13 +551,13 @@ def _limit_margin(scene: Scene, q: np.ndarray) -> float:
     return float(np.min(np.minimum(q[lim] - lower[lim], upper[lim] - q[lim]))) if lim.any() else np.inf
 
 
-_HOME: list[np.ndarray] = []  # the reference pose is fixed, so its IK solution is solved once
+_HOME: dict[str, np.ndarray] = {}  # per arm: the reference pose is fixed, so its IK solution is solved once
 
 
 def _home_configuration(scene: Scene) -> np.ndarray:
     """The arm's configuration at the reference pose: of the seeded IK solutions, the one farthest from
     its joint limits, so that start poses all around the reference are reached by continuation from it."""
-    if not _HOME:
+    if scene.scenario.arm not in _HOME:
         found = []
         for q0 in [np.zeros(len(scene.rig.joints))] + _restart_seeds(scene, IK_HOME_SEEDS, IK_RESTART_SEED):
             try:
@@ -526,5 +566,5 @@ def _home_configuration(scene: Scene) -> np.ndarray:
                 continue
         if not found:
             raise ConfigError("the arm cannot reach the reference camera pose (no IK solution from any seed)")
-        _HOME.append(max(found, key=lambda q: _limit_margin(scene, q)))
-    return _HOME[0].copy()
+        _HOME[scene.scenario.arm] = max(found, key=lambda q: _limit_margin(scene, q))
+    return _HOME[scene.scenario.arm].copy()
