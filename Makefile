@@ -9,7 +9,7 @@ ROBOSUITE := 1.5.2  # hvs_sim/scene/arms.py ROBOSUITE_VERSION
 
 .PHONY: install install-test demo test
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml Makefile
 	python3 -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	# CPU torch first (a local wheel here); the package pins the same version, so nothing else is pulled

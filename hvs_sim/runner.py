@@ -171,7 +171,8 @@ def resolved_json(loop: ServoLoop) -> dict:
 
 
 def _summary(scenario, tracker, stats: RunStats, logger, interrupted: bool) -> dict:
-    out = {"scenario": scenario.name, "mount": scenario.mount, "seed": scenario.seed, "tracker": tracker,
+    out = {"scenario": scenario.name, "mount": scenario.mount, "arm": scenario.arm if scenario.mount == "arm" else None,
+           "seed": scenario.seed, "tracker": tracker,
            "camera": scenario.camera.sensor.name, "target": scenario.target_label, "wall": scenario.wall,
            "people": scenario.people, "interrupted": interrupted}
     if stats.n:

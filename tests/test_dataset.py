@@ -62,6 +62,6 @@ def test_an_interrupted_recording_keeps_the_finished_episodes(minari_root, monke
 
 def test_bad_dataset_settings_are_refused():
     for kwargs, words in (({"episodes": 0}, "episodes"), ({"obs_mode": "depth"}, "observation"),
-                          ({"dataset_id": "servo"}, "namespace/name-vN")):
+                          ({"dataset_id": "servo"}, "namespace/name-vN"), ({"dataset_id": "../x-v0"}, "namespace")):
         with pytest.raises(ConfigError, match=words):
             DatasetConfig(**kwargs)

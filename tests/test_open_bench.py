@@ -147,6 +147,12 @@ def test_bench_compare_pairs_episodes_and_refuses_other_suites(tmp_path, capsys)
     D = _results(tmp_path / "D", methods=("b",), errors=bad, camera="ideal")
     with pytest.raises(ConfigError, match="differ in camera"):
         compare(A, D)
+    E = _results(tmp_path / "E", methods=("b",), errors=bad)
+    summary = json.loads((E / "summary.json").read_text())
+    summary["config"]["arm"] = "panda"  # the same seeds on another arm are other episodes (no arm: the Jaco)
+    (E / "summary.json").write_text(json.dumps(summary))
+    with pytest.raises(ConfigError, match="differ in arm"):
+        compare(A, E)
     assert main(["bench", "compare", str(A)]) == 2
 
 

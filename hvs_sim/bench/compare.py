@@ -17,7 +17,8 @@ from hvs_sim.bench.suites import TILT_MAX_DEG
 from hvs_sim.errors import ConfigError
 
 # the settings that make two runs' episodes the same ones (ServoBenchConfig fields)
-EPISODE_FIELDS = ("scenarios", "camera", "people", "width", "height", "tilt_deg", "extra_steps", "steps", "success_px")
+EPISODE_FIELDS = ("scenarios", "camera", "people", "width", "height", "tilt_deg", "extra_steps", "steps", "success_px",
+                  "arm")
 
 
 def load_results(folder) -> dict:
@@ -49,6 +50,8 @@ def _check_same(a: dict, b: dict, names: tuple[str, str]) -> None:
         va, vb = a["config"].get(key), b["config"].get(key)
         if key == "tilt_deg":  # results before the field existed drew the 6-DOF tilts
             va, vb = TILT_MAX_DEG if va is None else va, TILT_MAX_DEG if vb is None else vb
+        if key == "arm":  # ... and ran on the Jaco
+            va, vb = va or "jaco", vb or "jaco"
         if va != vb:
             raise ConfigError(f"{names[0]} and {names[1]} differ in {key} ({va!r} against {vb!r}): their episodes are "
                               "not the same")

@@ -48,7 +48,9 @@ class DatasetConfig:
         check_number("max_steps", self.max_steps, 1, 100_000, integer=True)
         if self.obs_mode not in DATASET_OBS_MODES:
             raise ConfigError(f"dataset observation {self.obs_mode!r} unknown; accepted: {', '.join(DATASET_OBS_MODES)}")
-        if self.dataset_id.count("/") != 1 or not self.dataset_id.rsplit("-v", 1)[-1].isdigit():
+        parts = self.dataset_id.split("/")
+        if (len(parts) != 2 or any(p in ("", ".", "..") for p in parts) or "\\" in self.dataset_id
+                or not self.dataset_id.rsplit("-v", 1)[-1].isdigit()):
             raise ConfigError(f"dataset id {self.dataset_id!r} must read namespace/name-vN (e.g. {DATASET_ID})")
 
     def env_kwargs(self) -> dict:
@@ -134,13 +136,17 @@ def record(config: DatasetConfig, out, progress: bool = True) -> dict:
             summary["steps"] += len(ep.rewards)
             summary["converged"] += int(bool(info["is_success"]))
             summary["start_draws"].append(draws)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt:  # the finished episodes are written; any other error writes nothing
         summary["interrupted"] = True
         if not buffers:
+            env.close()
             raise
+    except BaseException:
+        env.close()
+        raise
+    try:
+        _write(buffers, env, config, out)
     finally:
-        if buffers:
-            _write(buffers, env, config, out)
         env.close()
     summary.update(dataset_id=config.dataset_id, path=str(final), success_rate=summary["converged"] / summary["episodes"],
                    minari_version=minari.__version__, config=dataclasses.asdict(config))

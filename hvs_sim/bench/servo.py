@@ -358,8 +358,8 @@ def servo_table(summary: dict, config: ServoBenchConfig) -> str:
     from hvs_sim.bench.stats import RULES
 
     suite = f"suite {config.suite}, " if config.suite else ""
-    lines = [(f"# Servo benchmark ({suite}{len(config.episode_seeds)} episodes per method and scenario, camera "
-             f"{config.camera}, {config.width}×{config.height})"), "",
+    lines = [(f"# Servo benchmark ({suite}{len(config.episode_seeds)} episodes per method and scenario, arm "
+             f"{config.arm}, camera {config.camera}, {config.width}×{config.height})"), "",
              ("Success rules, each with its 95 % Wilson interval (translation and rotation: the camera's full pose "
              "error to the reference pose at the episode's end):"), ""]
     lines += [f"- **{rule}**: {text}" for rule, text in RULES.items()]

@@ -114,11 +114,11 @@ def _apply_suite(args) -> None:
     suite = get_suite(args.suite, args.what)
     for flag, value in (("--smoke", args.smoke), ("--scenarios", args.scenarios), ("--seeds", args.seeds),
                         ("--episodes", args.episodes), ("--camera", args.camera), ("--people", args.people),
-                        ("--extra-steps", args.extra_steps), ("--mounts", args.mounts),
+                        ("--extra-steps", args.extra_steps), ("--mounts", args.mounts), ("--arm", args.arm),
                         ("--imagery natural", args.imagery == "natural")):
         if value:
-            raise ConfigError(f"{flag} changes what suite {suite.name} fixes (its scenarios, seeds, camera, people "
-                              "and steps): leave it out, or run without --suite")
+            raise ConfigError(f"{flag} changes what suite {suite.name} fixes (its scenarios, seeds, camera, arm, "
+                              "people and steps): leave it out, or run without --suite")
     named = list(args.methods or [])
     args.methods = list(dict.fromkeys([*suite.methods, *named] if suite.with_reference or not named else named))
     args.scenarios, args.seeds, args.camera = list(suite.scenarios), list(suite.seeds), suite.camera
@@ -286,5 +286,6 @@ def add_bench_parser(sub) -> None:
     from hvs_sim.scene.arms import ARM_NAMES
 
     p.add_argument("--arm", default=None, choices=ARM_NAMES,
-                   help="servo only: the arm the camera rides on (default jaco; a suite's own episodes on another arm)")
+                   help="servo only: the arm the camera rides on (default jaco; with --camera robot_cell, the camera a robot "
+                        "carries)")
     p.set_defaults(func=cmd_bench)

@@ -23,7 +23,7 @@ Reset cost: an episode whose compiled model would be the same as the last one's 
 scenario, camera and people, the seed drawing nothing of the model) restarts on it (Scene.restart) instead of building
 and compiling the scene and its rendering context again. With people or per-seed textures each episode's seed draws a
 new look, hence a new model; `appearance="fixed"` keeps the look drawn at the first reset (or the last reset with a
-seed) so those episodes restart too, at the price of less visual variety.
+seed) so those episodes restart too, at the price of less visual variety (the camera's noise still differs by episode).
 
 arm: "jaco" (6 joints), "panda" (7) or "ur5e" (6): the joints' observation and a joint action have the arm's size.
 Defaults worth knowing: scenario "clear" (no person; pass e.g. scenario="walk_by"), a 160×120
@@ -123,8 +123,10 @@ class VisualServoEnv(gym.Env):
         self.appearance, self._look_seed = appearance, None
         self._compiled = None  # the last episode's Scene: its model and rendering context, kept for restart
         self.model_builds = 0  # scenes built and compiled (the rest of the resets restarted one)
-        from hvs_sim.scene.arms import ARMS
+        from hvs_sim.scene.arms import ARMS, robosuite_robots
 
+        if arm != "jaco":  # the model files are there, or the env says how to get them (not 20 failed start draws)
+            robosuite_robots()
         n = ARMS[arm].dof  # joints in the observation and in a joint action
         # velocities well inside ±10 rad/s (actuators stop at < 1 rad/s)
         if joints == "wrapped":  # angles wrapped to [−π, π)
@@ -231,7 +233,7 @@ class VisualServoEnv(gym.Env):
             offset = (*rng.uniform(-self.max_offset, self.max_offset, 3), rng.uniform(-self.max_roll, self.max_roll))
             if given:
                 offset = options["start_offset"]
-            look = int(rng.integers(0, 2**31 - 1))
+            look = noise = int(rng.integers(0, 2**31 - 1))  # the episode's look and its camera noise
             if self.appearance == "fixed":
                 look = self._look_seed = look if self._look_seed is None else self._look_seed
             try:
@@ -247,7 +249,7 @@ class VisualServoEnv(gym.Env):
                     self._compiled = None  # the old model's memory goes before the new one is built
                     self._compiled = Scene(scen, framebuffer=self.render_size if self.render_mode == "rgb_array" else None)
                     self.model_builds += 1
-                renderer = Renderer(self._compiled)
+                renderer = Renderer(self._compiled, noise_seed=noise)
                 check_start_in_view(self._compiled, renderer)
                 self.scene, self.renderer = self._compiled, renderer
                 break

@@ -64,9 +64,11 @@ SCENE_VIEW_DISTANCE = 2.6  # ... this many camera-to-target distances away
 class Renderer:
     """Renders the scene's eye camera. Segmentation renders give the exact occlusion fraction."""
 
-    def __init__(self, scene: Scene, people: bool = True):
+    def __init__(self, scene: Scene, people: bool = True, noise_seed: int | None = None):
         """people=False: the people are left out of the RGB frames (a capture of the clear scene, such as
-        the goal image a user takes before servoing); ground truth and segmentation are unchanged."""
+        the goal image a user takes before servoing); ground truth and segmentation are unchanged.
+        noise_seed: seeds the camera model's noise, exposure drift and light changes (None: the scenario's seed), so
+        that episodes of one scene, such as the gym env's with a fixed look, differ in them."""
         check_not_forked_after_rendering()
         self.scene, self.people = scene, people
         cam = scene.scenario.camera
@@ -82,7 +84,8 @@ class Renderer:
         self._hide_people.geomgroup[OCCLUDER_GROUP] = 0
         self.sensor = cam.sensor
         self._ideal = self.sensor.is_ideal  # frozen: checked once, not per frame
-        self._state = None if self._ideal else SensorState(self.sensor, scene.scenario.seed, (self.height, self.width))
+        self._noise_seed = None if noise_seed is None else int(noise_seed)
+        self._state = None if self._ideal else SensorState(self.sensor, self.noise_seed, (self.height, self.width))
         # the lights as modelled; flicker and dimming scale them during a capture and put them back after
         self._maps = distortion_maps(self.K, self.sensor.distortion, self.width, self.height) if self.sensor.distortion else None
         self._light0 = (m.light_diffuse.copy(), m.light_ambient.copy(), m.vis.headlight.diffuse.copy(),
@@ -117,7 +120,7 @@ class Renderer:
         if self._last is not None and self._last[0] == key:
             return self._last[1].copy()  # auto-exposure and noise advance once per frame
         if self._last is not None and self._last[0][0] != key[0]:
-            self._state = SensorState(self.sensor, scene.scenario.seed, (self.height, self.width))  # a new episode
+            self._state = SensorState(self.sensor, self.noise_seed, (self.height, self.width))  # a new episode
         frame = self._state.capture(self._exposure(), scene.frame_index, scene.time, 1.0 / scene.scenario.fps)
         self._last = (key, frame)
         return frame.copy()
@@ -183,11 +186,16 @@ class Renderer:
             acc += self._state.capture(linear, k, scene.time, 1.0 / scene.scenario.fps, stream=STILL_STREAM)
         return np.rint(acc / np.float32(n)).astype(np.uint8)
 
+    @property
+    def noise_seed(self) -> int:
+        """The seed of the camera model's noise, drift and light changes: the scene's scenario's unless given."""
+        return self.scene.scenario.seed if self._noise_seed is None else self._noise_seed
+
     def _set_lights(self, t: float | None) -> None:
         """Scale the scene's lights for the camera model's flicker / dimming at time t; None puts them back."""
         if not self.sensor.lights_change:
             return
-        k = 1.0 if t is None else light_scale(self.sensor, self.scene.scenario.seed, t)
+        k = 1.0 if t is None else light_scale(self.sensor, self.noise_seed, t)
         m = self.scene.physics.model
         m.light_diffuse[:] = self._light0[0] * k
         m.light_ambient[:] = self._light0[1] * k

@@ -107,6 +107,9 @@ class ModelArmRig:
         for body in model.find_all("body"):
             body.gravcomp = 1.0
         flange = model.find("body", spec.flange)
+        if flange is None:
+            raise ConfigError(f"{path} has no body {spec.flange!r} at the flange: the model files are not robosuite "
+                              f"{ROBOSUITE_VERSION}'s; reinstall it (--no-deps)")
         # camera frame: the tool axis (+Z) is the optical axis; MuJoCo cameras look along their −Z (180° about X)
         pos = [0.0, 0.0, WRIST_CAMERA_OFFSET_M]
         half = np.radians(spec.camera_roll_deg) / 2
@@ -122,6 +125,17 @@ class ModelArmRig:
     @property
     def mjcf_model(self):
         return self.model
+
+
+def check_frame_rate(name: str, fps: float, substeps: int) -> None:
+    """A file-read arm's velocity loop is stable while VELOCITY_GAIN · timestep / ARMATURE < 1, the timestep being
+    1 / (fps · substeps): refuse a frame rate below that."""
+    if name == "jaco":
+        return
+    lowest = VELOCITY_GAIN / ARMATURE / substeps
+    if fps <= lowest:
+        raise ConfigError(f"{ARMS[name].label}'s velocity loop is unstable below {lowest:.0f} fps (the physics takes "
+                          f"{substeps} steps a frame); got fps {fps:g}: give a higher frame rate")
 
 
 def _drawn_by_collision_meshes(model, colours) -> None:

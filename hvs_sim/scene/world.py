@@ -15,7 +15,7 @@ from dm_control.utils import inverse_kinematics
 
 from hvs_sim.errors import ConfigError, InputError
 from hvs_sim.geometry import mat_to_quat, mujoco_to_opencv, offset_pose, opencv_to_mujoco, rotation_vector
-from hvs_sim.scene.arms import make_arm_rig
+from hvs_sim.scene.arms import check_frame_rate, make_arm_rig
 from hvs_sim.scene.flag_art import FLAG_NAMES
 from hvs_sim.scene.images import TARGET_MAX_ASPECT, crop_to_aspect, list_images, load_image
 from hvs_sim.scene.parts import FlagWall, HandheldRig, Person
@@ -80,6 +80,7 @@ class Scene:
         self.wall = FlagWall(root, *wall_pictures(scenario), target_width=scenario.target_width)
         self.people = [Person(root, i, rng, style=scenario.people) for i in range(len(scenario.occluders))]
         if scenario.mount == "arm":
+            check_frame_rate(scenario.arm, scenario.fps, PHYSICS_SUBSTEPS)
             self.rig = make_arm_rig(root, scenario.arm, cam.fovy)
         else:
             self.rig = HandheldRig(root, cam.fovy)
@@ -517,13 +518,16 @@ def _into_limits(scratch, rig, q, position, quat, lo, hi, steps: int = IK_LIMIT_
     target_R = np.zeros(9)
     mujoco.mju_quat2Mat(target_R, np.asarray(quat, float))
     target_R = target_R.reshape(3, 3)
+
+    def pose_error() -> np.ndarray:  # (position; rotation vector, small angles) from the site to the target pose
+        R = d.site_xmat[site].reshape(3, 3)
+        return np.concatenate([position - d.site_xpos[site], 0.5 * sum(np.cross(R[:, k], target_R[:, k]) for k in range(3))])
+
     for _ in range(steps):
         qpos.qpos = q
         mujoco.mj_kinematics(m, d)
         mujoco.mj_comPos(m, d)
-        R = d.site_xmat[site].reshape(3, 3)
-        err = np.concatenate([position - d.site_xpos[site], 0.5 * (np.cross(R[:, 0], target_R[:, 0]) +
-                              np.cross(R[:, 1], target_R[:, 1]) + np.cross(R[:, 2], target_R[:, 2]))])
+        err = pose_error()
         mujoco.mj_jacSite(m, d, jacp, jacr, site)
         J = np.vstack([jacp[:, dofs], jacr[:, dofs]])
         J_pinv = J.T @ np.linalg.inv(J @ J.T + IK_LIMIT_DAMPING ** 2 * np.eye(6))
@@ -531,7 +535,7 @@ def _into_limits(scratch, rig, q, position, quat, lo, hi, steps: int = IK_LIMIT_
         q = np.clip(q + J_pinv @ err + (np.eye(len(q)) - J_pinv @ J) @ pull, inside_lo, inside_hi)
     qpos.qpos = q
     mujoco.mj_kinematics(m, d)
-    if np.linalg.norm(position - d.site_xpos[site]) > 1e-6:
+    if np.linalg.norm(pose_error()) > 1e-6:
         raise ConfigError(f"camera pose {np.round(position, 3).tolist()} needs an arm configuration outside the "
                           "joint limits")
     return q
