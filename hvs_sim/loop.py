@@ -295,7 +295,7 @@ class ServoLoop:
         tracked_6dof = self.tracker is not None and len(dofs) == 6
         damping = config.ibvs.damping
         if damping is None:  # exact features need none; tracked ones on six DOF do (IBVSConfig.damping)
-            damping = TRACKED_6DOF_DAMPING if tracked_6dof and config.controller == "ibvs" else 0.0  # PBVS: no L⁺
+            damping = TRACKED_6DOF_DAMPING if tracked_6dof and config.controller in ("ibvs", "pbvs") else 0.0
         alpha = config.feature_filter
         alpha = (FEATURE_FILTER_ALPHA if tracked_6dof else 0.0) if alpha is None else float(alpha)
         can_seed = getattr(self.tracker, "can_seed", True)  # an outside tracker without seed(A): its first frame

@@ -79,7 +79,8 @@ class IBVSConfig:
     predict_gain: float = 0.5  # multiplies λ while the tracker predicts (occlusion)
     max_linear: float = 0.15  # m/s, per-axis command bound (reported when hit)
     max_angular: float = 0.6  # rad/s
-    # IBVS only: damped pseudo-inverse (LᵀL + μ²I)⁻¹Lᵀ with μ = damping × σ_max(L); 0 = the plain L⁺ of the paper.
+    # damped pseudo-inverse (LᵀL + μ²I)⁻¹Lᵀ with μ = damping × σ_max(L); 0 = the plain L⁺ of the paper (PBVS weights
+    # its pose error by the same (LᵀL + μ²I)⁻¹LᵀL: pbvs.PBVSController.shrunk).
     # Damps the directions L barely sees (pitch/yaw against lateral shift for a small target), whose
     # velocity would otherwise be tracker noise divided by a small singular value. None: the loop
     # decides (TRACKED_6DOF_DAMPING for tracked features on six DOF, else 0; README, servo benchmark)

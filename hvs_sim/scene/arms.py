@@ -24,12 +24,13 @@ from hvs_sim.errors import ConfigError
 
 WRIST_CAMERA_OFFSET_M = 0.04  # the camera's optical centre ahead of the flange, on the tool axis
 PEDESTAL_RGBA = [0.3, 0.3, 0.32, 1]
-# The velocity loop of a file-read arm: each joint gets ARMATURE (kg·m², the reflected rotor inertia MuJoCo
-# Menagerie gives these arms) and a velocity actuator of gain VELOCITY_GAIN (N·m·s/rad). Stable with the scene's
-# explicit integrator while VELOCITY_GAIN · timestep / ARMATURE < 1 (here 0.67 at 600 Hz); the Jaco keeps
-# dm_control's own (kv 500 on armature 2–4).
-ARMATURE = 0.1
-VELOCITY_GAIN = 40.0
+# The velocity loop of a file-read arm, as stiff as the makers' joint velocity controllers: each joint gets ARMATURE
+# (kg·m²) and a velocity actuator of gain VELOCITY_GAIN (N·m·s/rad), a time constant of a few ms on the heaviest
+# links. The scene's explicit integrator keeps it stable while VELOCITY_GAIN · timestep / ARMATURE < 1 (0.67 at
+# 600 Hz); the Jaco keeps dm_control's own (kv 500 on armature 2–4). docs/tuning.md: with Menagerie's armature (0.1)
+# and a gain of 40 the loop lagged, and the tracked-corner servo on the Panda ended 0.5–1.3 px off.
+ARMATURE = 1.0
+VELOCITY_GAIN = 400.0
 ROBOSUITE_VERSION = "1.5.2"  # the model files' source, installed by the Makefile (--no-deps)
 
 
