@@ -398,6 +398,9 @@ class Scene:
             if not found:
                 raise ConfigError(f"{first}; the start offset {self.scenario.start_offset_text} cannot be reached by "
                                   "the arm: give a smaller offset") from None
+            lower, upper, _ = self.joint_limits()
+            middle = np.where(np.isfinite(lower + upper), (lower + upper) / 2, 0.0)
+            found = [unwound(qs, middle, lower, upper) for qs in found]  # a joint's turn furthest from its limits
             return min(found, key=lambda qs: float(np.abs(qs - home).sum()))
 
     def advance(self, joint_velocity: np.ndarray | None = None) -> None:
@@ -494,11 +497,26 @@ def _solve_ik(root, physics, rig, position, R_cv, q0) -> np.ndarray:
     q = scratch.bind(rig.joints).qpos.copy()
     limited = physics.model.jnt_limited[physics.bind(rig.joints).element_id].astype(bool)
     lo, hi = np.asarray(physics.bind(rig.joints).range, float).T
+    if q0 is not None:  # a joint that turns more than once: the turn nearest the start (the same pose)
+        q = unwound(q, q0, np.where(limited, lo, -np.inf), np.where(limited, hi, np.inf))
     if len(q) > 6 and np.any(limited & ((q < lo) | (q > hi))):  # a redundant arm: move along its self-motion
         q = _into_limits(scratch, rig, q, position, quat, np.where(limited, lo, -np.inf), np.where(limited, hi, np.inf))
     if np.any(limited & ((q < lo) | (q > hi))):
         raise ConfigError(f"camera pose {np.round(position, 3).tolist()} needs an arm configuration outside the "
                           "joint limits")
+    return q
+
+
+def unwound(q: np.ndarray, ref: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """q with each joint whose limits span a full turn or more (a UR's ±2π) moved by whole turns to the value nearest
+    `ref` within its limits: the same arm pose, a turn nearer where the arm is (an IK step) or further from the
+    limits it would otherwise run into (a restart). Joints without limits, or spanning under a turn, are left alone."""
+    q = np.array(q, float)
+    wide = np.isfinite(lower) & np.isfinite(upper) & (upper - lower >= 2 * np.pi - 1e-9)
+    for i in np.flatnonzero(wide):
+        turns = np.arange(np.ceil((lower[i] - q[i]) / (2 * np.pi)), np.floor((upper[i] - q[i]) / (2 * np.pi)) + 1)
+        if len(turns):
+            q[i] += 2 * np.pi * turns[np.argmin(np.abs(q[i] + 2 * np.pi * turns - ref[i]))]
     return q
 
 
@@ -570,5 +588,8 @@ def _home_configuration(scene: Scene) -> np.ndarray:
                 continue
         if not found:
             raise ConfigError("the arm cannot reach the reference camera pose (no IK solution from any seed)")
+        lower, upper, _ = scene.joint_limits()
+        middle = np.where(np.isfinite(lower + upper), (lower + upper) / 2, 0.0)
+        found = [unwound(q, middle, lower, upper) for q in found]
         _HOME[scene.scenario.arm] = max(found, key=lambda q: _limit_margin(scene, q))
     return _HOME[scene.scenario.arm].copy()
