@@ -6,8 +6,9 @@ For each arm read from files, a grid of base positions (x, z) and camera mounts 
 reference camera pose (0.8 m from the target, looking at it) solved by IK from seeded starts, scored by how far the
 joints stay from their limits (capped at 0.5 rad) and how far the camera's Jacobian is from singular (its smallest
 singular value, capped at 0.2). Then the servo benchmark's 20 first start poses (seeds 200–219) drawn for the best
-placements: how many the arm cannot reach or cannot see the target from. The chosen placement is the best score
-whose start poses all need no more draws than the Jaco's.
+placements: how many the arm cannot reach or cannot see the target from. The placement chosen (ARMS, recorded
+here as "chosen") is, among the three best scores, the one with the largest joint margin whose start poses need
+no more draws than the Jaco's.
 """
 
 from __future__ import annotations

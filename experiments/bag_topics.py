@@ -43,6 +43,8 @@ def _describe(msg) -> str:
     """A short account of one message: its fields, arrays by shape."""
     parts = []
     for name in getattr(msg, "__dataclass_fields__", {}):
+        if name.startswith("__"):  # rosbags' own bookkeeping (the type name, in the table already)
+            continue
         v = getattr(msg, name)
         if name == "header":
             parts.append(f"frame_id={v.frame_id!r}")

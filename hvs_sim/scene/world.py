@@ -399,7 +399,7 @@ class Scene:
                 raise ConfigError(f"{first}; the start offset {self.scenario.start_offset_text} cannot be reached by "
                                   "the arm: give a smaller offset") from None
             lower, upper, _ = self.joint_limits()
-            middle = np.where(np.isfinite(lower + upper), (lower + upper) / 2, 0.0)
+            middle = _middle(lower, upper)
             found = [unwound(qs, middle, lower, upper) for qs in found]  # a joint's turn furthest from its limits
             return min(found, key=lambda qs: float(np.abs(qs - home).sum()))
 
@@ -507,6 +507,12 @@ def _solve_ik(root, physics, rig, position, R_cv, q0) -> np.ndarray:
     return q
 
 
+def _middle(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """The middle of each joint's range; 0 for a joint without limits."""
+    limited = np.isfinite(lower) & np.isfinite(upper)
+    return np.where(limited, (np.where(limited, lower, 0.0) + np.where(limited, upper, 0.0)) / 2, 0.0)
+
+
 def unwound(q: np.ndarray, ref: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     """q with each joint whose limits span a full turn or more (a UR's ±2π) moved by whole turns to the value nearest
     `ref` within its limits: the same arm pose, a turn nearer where the arm is (an IK step) or further from the
@@ -589,7 +595,7 @@ def _home_configuration(scene: Scene) -> np.ndarray:
         if not found:
             raise ConfigError("the arm cannot reach the reference camera pose (no IK solution from any seed)")
         lower, upper, _ = scene.joint_limits()
-        middle = np.where(np.isfinite(lower + upper), (lower + upper) / 2, 0.0)
+        middle = _middle(lower, upper)
         found = [unwound(q, middle, lower, upper) for q in found]
         _HOME[scene.scenario.arm] = max(found, key=lambda q: _limit_margin(scene, q))
     return _HOME[scene.scenario.arm].copy()
