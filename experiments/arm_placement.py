@@ -72,12 +72,12 @@ def main() -> None:
 
     chosen = {name: (spec.base, spec.camera_roll_deg) for name, spec in ARMS.items()}
     out = {"jaco_start_draws": start_draws("jaco", *chosen["jaco"]), "arms": {}}
-    for arm in ("panda", "ur5e"):
+    for arm in [a for a in ARMS if a != "jaco"]:
         rows = []
         for x, z, roll in itertools.product(BASES_X, BASES_Z, ROLLS):
             best = score(arm, (x, 0.0, z), roll)
             rows.append({"base": [x, 0.0, z], "camera_roll_deg": roll, **(best or {"score": None})})
-        ranked = sorted((r for r in rows if r["score"] is not None), key=lambda r: -r["score"])
+        ranked = sorted((r for r in rows if r["score"] is not None), key=lambda r: (-r["score"], -r["margin_rad"]))
         for r in ranked[:3]:
             r["start_draws"] = start_draws(arm, tuple(r["base"]), r["camera_roll_deg"])
         out["arms"][arm] = {"chosen": {"base": list(chosen[arm][0]), "camera_roll_deg": chosen[arm][1]},

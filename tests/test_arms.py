@@ -16,7 +16,7 @@ from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 from hvs_sim.scene.world import Scene
 
 SMALL = CameraConfig(width=160, height=120)
-NEW_ARMS = ("panda", "ur5e")
+NEW_ARMS = ("panda", "ur5e", "gen3")
 # the model files come with the set-up (make install); a venv made without it skips what needs them
 pytestmark = pytest.mark.skipif(importlib.util.find_spec("robosuite") is None,
                                 reason="robosuite's model files are not installed (make install)")

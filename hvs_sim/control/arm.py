@@ -49,8 +49,9 @@ def twist_to_joint_velocities(J: np.ndarray, twist_world: np.ndarray, q: np.ndar
     if len(q) > 6 and limits.null_gain > 0:
         J_pinv = np.linalg.pinv(J)  # undamped: the projector must leave the camera's motion exactly as it is
         limited = np.isfinite(limits.q_lower) & np.isfinite(limits.q_upper)
-        half = np.where(limited, (limits.q_upper - limits.q_lower) / 2, 1.0)
-        mid = np.where(limited, (limits.q_upper + limits.q_lower) / 2, q)
+        lo, hi = np.where(limited, limits.q_lower, q), np.where(limited, limits.q_upper, q)  # free joints: no pull
+        half = np.where(limited, (hi - lo) / 2, 1.0)
+        mid = (lo + hi) / 2
         qdot = qdot + (np.eye(len(q)) - J_pinv @ J) @ (limits.null_gain * (mid - q) / half)
     blocked = []
     for i in range(len(q)):

@@ -1,7 +1,7 @@
 """The arms a wrist camera can ride on: one registry (ARMS) of what each is, and the rig that builds it.
 
-The Kinova Jaco comes from dm_control (its entity, velocity actuators and torque limits). The Franka Panda and the
-Universal Robots UR5e are read as files from robosuite's model folder (MIT licence; `robosuite` is installed by the
+The Kinova Jaco comes from dm_control (its entity, velocity actuators and torque limits). The Franka Panda, the
+Universal Robots UR5e and the Kinova Gen3 are read as files from robosuite's model folder (MIT licence; `robosuite` is installed by the
 project's set-up without its dependencies, and never imported: only its MJCF and meshes are read). Each is driven as
 the Jaco is: a velocity actuator per joint with the maker's joint speed limit as its range and the maker's peak
 torque as its force limit, the bodies gravity-compensated (as the arms' firmware does), and the joint limits of the
@@ -68,6 +68,11 @@ ARMS: dict[str, ArmSpec] = {
         "ur5e", "Universal Robots UR5e (6 DOF)", f"robosuite {ROBOSUITE_VERSION} models/assets/robots/ur5e (MIT)", 0.85,
         (-0.3, 0.0, 0.75), qdot_max=(np.pi,) * 6, torque_max=(150.0, 150.0, 150.0, 28.0, 28.0, 28.0), folder="ur5e",
         colours=((0.7, 0.7, 0.72, 1), (0.22, 0.45, 0.7, 1))),
+    "gen3": ArmSpec(
+        "gen3", "Kinova Gen3 (7 DOF)", f"robosuite {ROBOSUITE_VERSION} models/assets/robots/kinova3 (MIT)", 0.902,
+        (-0.3, 0.0, 0.9), qdot_max=(1.396, 1.396, 1.396, 1.396, 1.222, 1.222, 1.222),
+        torque_max=(39.0, 39.0, 39.0, 39.0, 9.0, 9.0, 9.0), folder="kinova3",
+        colours=((0.55, 0.57, 0.6, 1), (0.2, 0.2, 0.22, 1)), camera_roll_deg=180.0),
 }
 ARM_NAMES: tuple[str, ...] = tuple(ARMS)
 DEFAULT_ARM = "jaco"
