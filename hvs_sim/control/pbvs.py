@@ -36,12 +36,18 @@ def target_model(desired_px: np.ndarray, desired_depth: float, K: np.ndarray) ->
     return np.column_stack([s * desired_depth, np.full(len(s), desired_depth)])
 
 
-def target_pose(model: np.ndarray, K: np.ndarray, corners_px: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """(R, t) of the planar `model` in the camera frame from its corners (pixels): cv2.solvePnP with IPPE, exact for
-    four coplanar points; None when OpenCV finds no finite pose (a degenerate quad)."""
+def target_pose(model: np.ndarray, K: np.ndarray, corners_px: np.ndarray,
+                refine: bool = False) -> tuple[np.ndarray, np.ndarray] | None:
+    """(R, t) of the planar `model` in the camera frame from its corners (pixels): cv2.solvePnP with IPPE; None when
+    OpenCV finds no finite pose (a degenerate quad). IPPE fits the plane's homography to the four corners exactly
+    (eight numbers) and reads the pose off it, so corner noise in the homography's two projective parameters lands
+    in the pose too; `refine` then minimises the reprojection error over the pose's six parameters
+    (cv2.solvePnPRefineLM): the least-squares pose, whose noise is what L⁺ makes of the corners' (PBVS)."""
+    pts = np.asarray(corners_px, np.float64).reshape(-1, 1, 2)
     try:
-        ok, rvec, tvec = cv2.solvePnP(model, np.asarray(corners_px, np.float64).reshape(-1, 1, 2), K, None,
-                                      flags=cv2.SOLVEPNP_IPPE)
+        ok, rvec, tvec = cv2.solvePnP(model, pts, K, None, flags=cv2.SOLVEPNP_IPPE)
+        if ok and refine and np.all(np.isfinite(rvec)) and np.all(np.isfinite(tvec)):
+            rvec, tvec = cv2.solvePnPRefineLM(model, pts, K, None, rvec, tvec)
     except cv2.error:
         return None
     if not ok or not np.all(np.isfinite(rvec)) or not np.all(np.isfinite(tvec)):
@@ -66,7 +72,7 @@ class PBVSController:
 
     def pose(self, features_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(R, t) of the target model in the current camera frame from the corners (pixels)."""
-        pose = target_pose(self.model, self.K, features_px)
+        pose = target_pose(self.model, self.K, features_px, refine=True)
         if pose is None:
             raise InputError("PBVS: the target's pose could not be estimated from these corners")
         return pose
