@@ -3,8 +3,8 @@ classic PBVS law on the camera's displacement (Chaumette & Hutchinson 2006, e = 
 
 The target model is what the controller is given for IBVS too: the desired corners s* seen at the
 desired depth Z* with the target plane facing the camera, i.e. P_i = Z* K⁻¹ (u*_i, v*_i, 1). The
-current pose cTo of that model comes from the tracked corners (cv2.solvePnP, IPPE: exact for four
-coplanar points), and with the model in the desired camera frame c*To = I, so c*Tc = (cTo)⁻¹ and
+current pose cTo of that model is the least-squares fit to the tracked corners (IPPE, then refined over the pose's
+six parameters: target_pose), and with the model in the desired camera frame c*To = I, so c*Tc = (cTo)⁻¹ and
 
     v = −λ c*R_cᵀ c*t_c = λ t,    ω = −λ θu(c*R_c) = λ θu(R),    where cTo = (R, t).
 
@@ -12,12 +12,13 @@ The camera then moves on a straight line to the goal (the target may leave the v
 which the servo benchmark counts). The gain schedule, the predict-mode gain, the lost rule and the
 twist bounds are IBVS's (IBVSConfig), so the two laws differ only in the error they regulate.
 
-With IBVSConfig.damping > 0 (the loop's default for tracked corners on six DOF, as for IBVS) the pose error is
-weighted by (LᵀL + μ²I)⁻¹LᵀL: four corners of a small target barely see a sideways shift traded against a tilt, and
-the pose IPPE returns swings along that direction by ±2° and ±30 mm from frame to frame at 0.07 px of corner noise.
-Undamped, the arm turned those swings into image motion and no tracked-corner episode of the servo benchmark ended
-within its bounds; damped, PBVS regulates what the corners see, as damped IBVS does (the two agree to first order
-near the goal).
+The pose matters: IPPE alone fits the plane's homography to the four corners exactly, and at 0.07 px of corner noise
+its pose swings by ±2.2° and ±31 mm from frame to frame along the direction four corners of a small target barely see
+(a sideways shift traded against a tilt); the arm turned those swings into image motion, and no tracked-corner episode
+of the servo benchmark held the goal. The least-squares pose swings by ±0.6° and ±9 mm, as the IBVS law's L⁺ sees the
+same noise. With IBVSConfig.damping > 0 (the loop's default for tracked corners on six DOF, as for IBVS) the pose
+error is also weighted by (LᵀL + μ²I)⁻¹LᵀL, the damped IBVS law's weighting (the two agree to first order near the
+goal).
 """
 
 from __future__ import annotations
