@@ -41,7 +41,9 @@ def test_the_dataset_is_read_back_by_minari_with_the_expert_converging(minari_ro
 def test_an_interrupted_recording_keeps_the_finished_episodes(minari_root, monkeypatch):
     import minari
 
-    real = ds._Expert.__call__
+    from hvs_sim.envs.expert import IBVSExpert
+
+    real = IBVSExpert.__call__
     seen = {"episode": 0, "frame": -1}
 
     def interrupted(self, obs, info):  # Ctrl-C three frames into the second episode
@@ -52,7 +54,7 @@ def test_an_interrupted_recording_keeps_the_finished_episodes(minari_root, monke
             raise KeyboardInterrupt
         return real(self, obs, info)
 
-    monkeypatch.setattr(ds._Expert, "__call__", interrupted)
+    monkeypatch.setattr(IBVSExpert, "__call__", interrupted)
     with pytest.raises(KeyboardInterrupt) as caught:
         record(DatasetConfig(episodes=3), minari_root, progress=False)
     assert caught.value.args[0]["episodes"] == 1 and caught.value.args[0]["interrupted"]

@@ -72,35 +72,6 @@ def benchmark_start(env, seed: int) -> tuple[tuple, dict, int]:
     raise InputError(f"no usable benchmark start pose for seed {seed} in {START_DRAWS} draws ({last})")
 
 
-class _Expert:
-    """The IBVS expert, on the true corners when the observation holds none (image modes)."""
-
-    def __init__(self, env):
-        from hvs_sim.envs.expert import IBVSExpert
-
-        self.env = env.unwrapped
-        self.features = self.env.obs_mode == "features"
-        self.teacher = IBVSExpert(env if self.features else _FeatureView(self.env))
-
-    def __call__(self, obs, info):
-        if not self.features:
-            gt = self.env.renderer.ground_truth(occlusion=False, counts=False).corners
-            obs = {"features": gt.astype(np.float64), "desired": self.env.desired}
-        return self.teacher(obs, info)
-
-
-class _FeatureView:
-    """The env as the expert checks it: a features observation read from the truth."""
-
-    def __init__(self, env):
-        self.unwrapped, self.obs_mode, self.action_type, self.scale = self, "features", env.action_type, env.scale
-        self.env = env
-
-    @property
-    def scene(self):
-        return self.env.scene
-
-
 def record(config: DatasetConfig, out, progress: bool = True) -> dict:
     """Roll the expert out and write the dataset under `out` (a Minari datasets root, renamed into place when complete;
     on Ctrl-C the finished episodes are written). Returns a summary."""
@@ -118,7 +89,9 @@ def record(config: DatasetConfig, out, progress: bool = True) -> dict:
     # the passive checker keeps the first reset's data, and a first reset refused (a start out of view) leaves it empty
     env = gym.make("hvs_sim/VisualServo-v1", max_episode_steps=config.max_steps, disable_env_checker=True,
                    **config.env_kwargs())
-    expert = _Expert(env)
+    from hvs_sim.envs.expert import IBVSExpert
+
+    expert = IBVSExpert(env, truth=config.obs_mode != "features")  # image modes: the teacher reads the truth
     buffers, summary = [], {"episodes": 0, "steps": 0, "converged": 0, "start_draws": [], "interrupted": False}
     try:
         for k in tqdm(range(config.episodes), desc="dataset", unit="episode", disable=not progress):

@@ -15,12 +15,15 @@ class IBVSExpert:
     max_angular and divided by them (the action space is [−1, 1]⁶). Desired depth: the scenario's standoff; depth of
     the current corners from their apparent size, as the loop's default."""
 
-    def __init__(self, env, gain: float = IBVSConfig.gain):
+    def __init__(self, env, gain: float = IBVSConfig.gain, truth: bool = False):
+        """truth: read the target's true corners and s* from the env instead of the observation, with any obs_mode
+        (the teacher of image datasets); otherwise the env must give the 'features' observation."""
         env = env.unwrapped
-        if env.obs_mode != "features" or env.action_type != "twist":
-            raise ConfigError(f"the IBVS expert reads the 'features' observation and answers a twist: build the env "
-                              f"with obs_mode='features' and action_type='twist' (got {env.obs_mode!r}, "
-                              f"{env.action_type!r})")
+        if (env.obs_mode != "features" and not truth) or env.action_type != "twist":
+            raise ConfigError(f"the IBVS expert reads the 'features' observation (or the truth, truth=True) and answers "
+                              f"a twist: build the env with obs_mode='features' and action_type='twist' (got "
+                              f"{env.obs_mode!r}, {env.action_type!r})")
+        self.truth = truth
         self.env, self.scale = env, np.asarray(env.scale, float)
         self.config = IBVSConfig(gain=gain, dofs=DOF_NAMES, max_linear=float(self.scale[0]),
                                  max_angular=float(self.scale[3]))
@@ -28,6 +31,9 @@ class IBVSExpert:
         self._key: tuple | None = None
 
     def __call__(self, obs: dict, info: dict) -> np.ndarray:
+        if self.truth:
+            corners = self.env.renderer.ground_truth(occlusion=False, counts=False).corners
+            obs = {"features": corners.astype(np.float64), "desired": self.env.desired}
         key = (np.asarray(obs["desired"]).tobytes(), np.asarray(info["K"]).tobytes())
         if key != self._key:  # a new episode (or camera): s* and K change only at a reset
             self._law = IBVSController(info["K"], obs["desired"], self.env.scene.scenario.standoff, self.config,

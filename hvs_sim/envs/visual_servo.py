@@ -25,7 +25,8 @@ and compiling the scene and its rendering context again. With people or per-seed
 new look, hence a new model; `appearance="fixed"` keeps the look drawn at the first reset (or the last reset with a
 seed) so those episodes restart too, at the price of less visual variety (the camera's noise still differs by episode).
 
-arm: "jaco" (6 joints), "panda" (7) or "ur5e" (6): the joints' observation and a joint action have the arm's size.
+arm: one of scene.arms.ARMS ("jaco", 6 joints; "panda", 7; "ur5e", 6; "gen3", 7): the joints' observation and a
+joint action have the arm's size.
 Defaults worth knowing: scenario "clear" (no person; pass e.g. scenario="walk_by"), a 160×120
 image, the ideal camera. An action must have the action space's shape and finite values (a NaN
 would poison the physics); values outside [−1, 1] are clipped, as the space says.
@@ -125,7 +126,7 @@ class VisualServoEnv(gym.Env):
         self.model_builds = 0  # scenes built and compiled (the rest of the resets restarted one)
         from hvs_sim.scene.arms import ARMS, robosuite_robots
 
-        if arm != "jaco":  # the model files are there, or the env says how to get them (not 20 failed start draws)
+        if ARMS[arm].from_files:  # the model files are there, or the env says how to get them (not 20 failed draws)
             robosuite_robots()
         n = ARMS[arm].dof  # joints in the observation and in a joint action
         # velocities well inside ±10 rad/s (actuators stop at < 1 rad/s)

@@ -53,6 +53,11 @@ class ArmSpec:
     camera_roll_deg: float = 0.0  # the camera's mount turned about the tool axis (the image's up on the flange)
 
     @property
+    def from_files(self) -> bool:
+        """Read from robosuite's model files (ModelArmRig), not built by dm_control (the Jaco)."""
+        return bool(self.folder)
+
+    @property
     def dof(self) -> int:
         return len(self.qdot_max) if self.qdot_max else 6
 
@@ -136,7 +141,7 @@ class ModelArmRig:
 def check_frame_rate(name: str, fps: float, substeps: int) -> None:
     """A file-read arm's velocity loop is stable while VELOCITY_GAIN · timestep / ARMATURE < 1, the timestep being
     1 / (fps · substeps): refuse a frame rate below that."""
-    if name == "jaco":
+    if not ARMS[name].from_files:
         return
     lowest = VELOCITY_GAIN / ARMATURE / substeps
     if fps <= lowest:
@@ -185,7 +190,7 @@ def make_arm_rig(root: mjcf.RootElement, name: str, fovy: float):
         from hvs_sim.errors import choice_error
 
         raise choice_error("arm", name, ARM_NAMES)
-    if name == "jaco":
+    if not ARMS[name].from_files:
         from hvs_sim.scene.parts import ArmRig
 
         return ArmRig(root, fovy)

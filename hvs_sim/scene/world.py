@@ -398,10 +398,7 @@ class Scene:
             if not found:
                 raise ConfigError(f"{first}; the start offset {self.scenario.start_offset_text} cannot be reached by "
                                   "the arm: give a smaller offset") from None
-            lower, upper, _ = self.joint_limits()
-            middle = _middle(lower, upper)
-            found = [unwound(qs, middle, lower, upper) for qs in found]  # a joint's turn furthest from its limits
-            return min(found, key=lambda qs: float(np.abs(qs - home).sum()))
+            return min(_off_limits(self, found), key=lambda qs: float(np.abs(qs - home).sum()))
 
     def advance(self, joint_velocity: np.ndarray | None = None) -> None:
         """Move one frame (1/fps s): joint velocity commands for the arm, kinematics for the rest."""
@@ -497,10 +494,11 @@ def _solve_ik(root, physics, rig, position, R_cv, q0) -> np.ndarray:
     q = scratch.bind(rig.joints).qpos.copy()
     limited = physics.model.jnt_limited[physics.bind(rig.joints).element_id].astype(bool)
     lo, hi = np.asarray(physics.bind(rig.joints).range, float).T
+    lower, upper = np.where(limited, lo, -np.inf), np.where(limited, hi, np.inf)
     if q0 is not None:  # a joint that turns more than once: the turn nearest the start (the same pose)
-        q = unwound(q, q0, np.where(limited, lo, -np.inf), np.where(limited, hi, np.inf))
+        q = unwound(q, q0, lower, upper)
     if len(q) > 6 and np.any(limited & ((q < lo) | (q > hi))):  # a redundant arm: move along its self-motion
-        q = _into_limits(scratch, rig, q, position, quat, np.where(limited, lo, -np.inf), np.where(limited, hi, np.inf))
+        q = _into_limits(scratch, rig, q, position, quat, lower, upper)
     if np.any(limited & ((q < lo) | (q > hi))):
         raise ConfigError(f"camera pose {np.round(position, 3).tolist()} needs an arm configuration outside the "
                           "joint limits")
@@ -511,6 +509,14 @@ def _middle(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     """The middle of each joint's range; 0 for a joint without limits."""
     limited = np.isfinite(lower) & np.isfinite(upper)
     return np.where(limited, (np.where(limited, lower, 0.0) + np.where(limited, upper, 0.0)) / 2, 0.0)
+
+
+def _off_limits(scene: Scene, solutions: list[np.ndarray]) -> list[np.ndarray]:
+    """IK restart solutions with each joint that turns more than once on the turn furthest from its limits (unwound
+    toward the middle of its range): a restart's seed says nothing about which turn the arm should start on."""
+    lower, upper, _ = scene.joint_limits()
+    middle = _middle(lower, upper)
+    return [unwound(q, middle, lower, upper) for q in solutions]
 
 
 def unwound(q: np.ndarray, ref: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
@@ -594,8 +600,5 @@ def _home_configuration(scene: Scene) -> np.ndarray:
                 continue
         if not found:
             raise ConfigError("the arm cannot reach the reference camera pose (no IK solution from any seed)")
-        lower, upper, _ = scene.joint_limits()
-        middle = _middle(lower, upper)
-        found = [unwound(q, middle, lower, upper) for q in found]
-        _HOME[scene.scenario.arm] = max(found, key=lambda q: _limit_margin(scene, q))
+        _HOME[scene.scenario.arm] = max(_off_limits(scene, found), key=lambda q: _limit_margin(scene, q))
     return _HOME[scene.scenario.arm].copy()
