@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hvs_sim.camera_model import SENSOR_NAMES
+from hvs_sim.camera_model import BLUR_MODES, SENSOR_NAMES, sensor_preset
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 from hvs_sim.scene.world import Scene
@@ -24,22 +24,27 @@ FIGURE_FRAMES = (40, 78)  # walk_by hand-held seed 0: the camera drifting, and t
 CROP = (slice(150, 330), slice(300, 540))  # a zoom on the target and the person's edge
 
 
-def time_preset(preset: str, frames: int) -> tuple[dict, dict[int, np.ndarray]]:
-    """Median / p95 ms of the RGB frame through a camera preset over the first `frames` frames of walk_by."""
-    scene = Scene(make_scenario("walk_by", mount="handheld", camera=CameraConfig(sensor=preset)))
+def time_preset(preset: str, frames: int, blur: str | None = None) -> tuple[dict, dict[int, np.ndarray]]:
+    """Median / p95 ms of the RGB frame through a camera preset over the first `frames` frames of walk_by (blur: the
+    preset's motion blur made another way, SensorModel.blur)."""
+    sensor = sensor_preset(preset) if blur is None else sensor_preset(preset, blur=blur)
+    scene = Scene(make_scenario("walk_by", mount="handheld", camera=CameraConfig(sensor=sensor)))
     r = Renderer(scene)
-    ms, samples, kept = [], [], {}
+    ms, samples, taps, kept = [], [], [], {}
     for k in range(max(frames, max(FIGURE_FRAMES) + 1)):
         t = time.perf_counter()
         frame = r.rgb()
         if k:  # frame 0 creates the GL context
             ms.append(1e3 * (time.perf_counter() - t))
         samples.append(r.blur_samples)
+        taps.append(r.blur_taps)
         if k in FIGURE_FRAMES:
             kept[k] = frame
         scene.advance()
     return {"rgb_ms_median": float(np.median(ms)), "rgb_ms_mean": float(np.mean(ms)),
-            "rgb_ms_p95": float(np.percentile(ms, 95)), "mean_blur_samples": float(np.mean(samples))}, kept
+            "rgb_ms_p95": float(np.percentile(ms, 95)), "mean_blur_samples": float(np.mean(samples)),
+            "blur": sensor.blur, "blurred_frames": int(np.count_nonzero(np.asarray(taps) > 1) + np.count_nonzero(
+                np.asarray(samples) > 1))}, kept
 
 
 def preset_figure(frames: dict[str, dict[int, np.ndarray]], path: Path) -> None:
@@ -70,19 +75,34 @@ def main() -> None:
     ap.add_argument("--json", default="experiments/results/render.json")
     ap.add_argument("--figure", default="experiments/results/figures/camera_presets.png")
     ap.add_argument("--presets", nargs="+", default=list(SENSOR_NAMES), choices=SENSOR_NAMES)
+    ap.add_argument("--blur", nargs="+", default=list(BLUR_MODES), choices=BLUR_MODES,
+                    help="motion blur ways to time each preset with (the first is the default's row)")
+    ap.add_argument("--no-mounts", action="store_true", help="only the presets (not the mounts with and without shadows)")
     args = ap.parse_args()
     out = {"machine": platform.processor() or platform.machine(), "frames": args.frames, "camera_presets": {}}
     kept = {}
     for preset in args.presets:
-        out["camera_presets"][preset], kept[preset] = time_preset(preset, args.frames)
+        for k, blur in enumerate(args.blur if preset != "ideal" else args.blur[:1]):
+            name = preset if k == 0 else f"{preset}:{blur}"
+            out["camera_presets"][name], got = time_preset(preset, args.frames, blur)
+            if k == 0:
+                kept[preset] = got
+    realistic = [p for n, p in out["camera_presets"].items() if n != "ideal" and ":" not in n]
+    if realistic and "ideal" in out["camera_presets"]:
+        out["realistic_mean_ratio_to_ideal"] = float(np.mean([p["rgb_ms_mean"] for p in realistic])
+                                                     / out["camera_presets"]["ideal"]["rgb_ms_mean"])
     for preset, p in out["camera_presets"].items():
         if "ideal" in out["camera_presets"]:  # the reference measured in the same run
             p["ratio_to_ideal"] = p["rgb_ms_mean"] / out["camera_presets"]["ideal"]["rgb_ms_mean"]
         ratio = f" ({p['ratio_to_ideal']:.2f}x ideal)" if "ratio_to_ideal" in p else ""
-        print(f"camera {preset:15s} rgb median {p['rgb_ms_median']:.1f} ms, mean {p['rgb_ms_mean']:.1f} ms{ratio}, "
-              f"p95 {p['rgb_ms_p95']:.1f} ms, {p['mean_blur_samples']:.2f} renders/frame")
+        print(f"camera {preset:26s} rgb median {p['rgb_ms_median']:.1f} ms, mean {p['rgb_ms_mean']:.1f} ms{ratio}, "
+              f"p95 {p['rgb_ms_p95']:.1f} ms, {p['mean_blur_samples']:.2f} renders/frame, "
+              f"{p['blurred_frames']} blurred frames")
+    if "realistic_mean_ratio_to_ideal" in out:
+        print(f"realistic presets ({args.blur[0]} blur): mean render cost {out['realistic_mean_ratio_to_ideal']:.2f}x "
+              "ideal's")
     preset_figure(kept, Path(args.figure))
-    for mount in ("handheld", "arm"):
+    for mount in (() if args.no_mounts else ("handheld", "arm")):
         for shadows in (False, True):
             scene = Scene(make_scenario("walk_by", mount=mount, shadows=shadows))
             r = Renderer(scene)

@@ -1,7 +1,7 @@
 """RGB and segmentation renders of the eye camera, and exact per-frame ground truth.
 
-RGB frames go through the scenario's camera model (`hvs_sim.camera_model`): motion blur from
-sub-frame renders over the exposure, lens distortion, auto-exposure, sensor noise, JPEG. Ground
+RGB frames go through the scenario's camera model (`hvs_sim.camera_model`): motion blur (along the image motion
+field of one render, `hvs_sim.render.blur`, or from sub-frame renders over the exposure), lens distortion, auto-exposure, sensor noise, JPEG. Ground
 truth comes from geometry only; with lens distortion it is projected through the same model.
 """
 
@@ -17,6 +17,7 @@ from dm_control.mujoco.wrapper import core as mj_core
 
 from hvs_sim.camera_model import STILL_STREAM, SensorState, decode, distort_points, distortion_maps, light_scale
 from hvs_sim.gl import check_not_forked_after_rendering, note_rendering
+from hvs_sim.render.blur import Rigid, blur_along_paths, camera_motion, motion_paths, pixel_rays, taps_for
 from hvs_sim.render.camera import CameraPose, intrinsics, project, transfer_points
 from hvs_sim.scene.parts import OCCLUDER_GROUP
 from hvs_sim.scene.world import Scene
@@ -29,6 +30,8 @@ OUTLINE_SHIFT = 4  # the target's outline is rasterised with 2^-4 px vertex prec
 OUTLINE_SUBPIXEL = 1 << OUTLINE_SHIFT
 MAX_STILL_FRAMES = 256  # still_average: more frames than a user would grab at the goal
 BLUR_PROBE_MARGIN = 0.25  # ... counted while within this fraction of the image size outside the frame
+PERSON_DEPTH_TOL_M = 0.01  # field blur: a pixel is a person's where the full render's depth is the people-only one's
+BODY_BOX_MARGIN_M = 0.005  # field blur: a point within this of the moving wall's boxes rides on the wall
 
 
 @dataclass(frozen=True)
@@ -92,6 +95,11 @@ class Renderer:
                         m.vis.headlight.ambient.copy())
         self._last: tuple[tuple[int, int], np.ndarray] | None = None  # ((scene resets, frame), frame): one capture a frame
         self.blur_samples = 1  # sub-frame renders used for the last frame (diagnostics)
+        self.blur_taps = 1  # field blur: taps along each pixel's motion in the last frame (1: sharp)
+        self._rays: np.ndarray | None = None  # field blur: the pixels' rays, made at the first blurred frame
+        self._only_people = mj_core.MjvOption()
+        for g in range(len(self._only_people.geomgroup)):
+            self._only_people.geomgroup[g] = int(g == OCCLUDER_GROUP)
         self._cam: engine.Camera | None = None  # made at the first render (the fork check ran in __init__)
 
     @staticmethod
@@ -155,20 +163,118 @@ class Renderer:
         """The light the sensor collects over the exposure (H×W×3 linear float32): sub-frame renders averaged
         (motion blur, the lights' flicker and dimming), then the lens distortion."""
         scene = self.scene
-        offsets = self.sensor.exposure_offsets(self.sensor.samples_for_motion(self._exposure_motion_px()))
+        samples = self.sensor.samples_for_motion(self._exposure_motion_px())
+        self.blur_taps = 1
+        if samples > 1 and self.sensor.blur == "field":
+            self.blur_samples = 1
+            linear = self._field_exposure()
+            if self._maps is not None:
+                linear = cv2.remap(linear, *self._maps, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+            return linear
+        offsets = self.sensor.exposure_offsets(samples)
         self.blur_samples = len(offsets)
-        linear = np.zeros((self.height, self.width, 3), np.float32)
+        linear = None
         try:
             for dt in offsets:
                 with scene.rewound(float(dt)):
                     self._set_lights(scene.time - float(dt))
-                    linear += decode(self._render())
+                    sub = decode(self._render())
+                linear = sub if linear is None else cv2.add(linear, sub, dst=linear)
         finally:
             self._set_lights(None)
-        linear /= np.float32(len(offsets))
+        if len(offsets) > 1:
+            linear /= np.float32(len(offsets))
         if self._maps is not None:
             linear = cv2.remap(linear, *self._maps, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         return linear
+
+    def _field_exposure(self) -> np.ndarray:
+        """The exposure as one render at its middle, blurred along each pixel's image motion (`render.blur`)."""
+        scene, exposure = self.scene, self.sensor.exposure_ms * 1e-3
+        try:
+            with scene.rewound(exposure / 2):
+                self._set_lights(scene.time - exposure / 2)
+                linear = decode(self._render())
+                depth = self._depth_of_last_render()
+                labels = self._moving_labels(depth)
+                cam_mid, bodies_mid = self._poses()
+        finally:
+            self._set_lights(None)
+        maps = []
+        for dt in (exposure, 0.0):  # the exposure's start, then its end (the frame time)
+            with scene.rewound(dt):
+                cam, bodies = self._poses()
+            maps.append([camera_motion(cam_mid, cam)]
+                        + [camera_motion(cam_mid, cam, b0, b1) for b0, b1 in zip(bodies_mid, bodies)])
+        points = self._rays_or_make() * depth[..., None]
+        u_start, u_end = motion_paths(points, labels, self.K, *maps)
+        self.blur_taps = taps_for(u_start, u_end, self.sensor.blur_max_samples)
+        return blur_along_paths(linear, u_start, u_end, self.blur_taps) if self.blur_taps > 1 else linear
+
+    def _depth_of_last_render(self) -> np.ndarray:
+        """(H, W) float32 depth (m along the optical axis) read back from the render just made: no second render."""
+        physics = self.scene.physics
+        raw = np.empty((self.height, self.width), np.float32)
+        rect = mujoco.MjrRect(0, 0, self.width, self.height)
+        with physics.contexts.gl.make_current() as ctx:
+            ctx.call(mujoco.mjr_readPixels, None, raw, rect, physics.contexts.mujoco.ptr)
+        extent = physics.model.stat.extent  # as dm_control's Camera.render(depth=True) linearises it
+        near, far = physics.model.vis.map.znear * extent, physics.model.vis.map.zfar * extent
+        return np.flipud(near / (1 - raw * (1 - near / far))).astype(np.float32)
+
+    def _moving_bodies(self) -> list:
+        """The bodies that move by themselves: the people shown in the frames, then the wall if it slides."""
+        bodies = [p.body for p in self.scene.people] if self.people else []
+        return bodies + ([self.scene.wall.body] if any(self.scene.scenario.wall_motion) else [])
+
+    def _poses(self) -> tuple[Rigid, list[Rigid]]:
+        """The eye camera's pose and the moving bodies' poses now."""
+        pose = self.camera_pose()
+        bind = self.scene.physics.bind
+        bodies = [Rigid(bind(b).xmat.reshape(3, 3).copy(), bind(b).xpos.copy()) for b in self._moving_bodies()]
+        return Rigid(pose.R, pose.t), bodies
+
+    def _moving_labels(self, depth: np.ndarray) -> np.ndarray:
+        """(H, W) uint8: 0 where the pixel shows the still world, k where it shows the k-th `_moving_bodies` body.
+        A person's pixels are those where a people-only render (cheap: few fragments) is as near as the full one;
+        the nearest person's feet (in plan) say whose. The wall's are the points inside its boxes."""
+        labels = np.zeros(depth.shape, np.uint8)
+        people = [p.body for p in self.scene.people] if self.people else []
+        points = None
+        if people:
+            only = self._camera().render(depth=True, scene_option=self._only_people)
+            mine = np.abs(only - depth) < PERSON_DEPTH_TOL_M
+            if len(people) == 1:
+                labels[mine] = 1
+            elif np.any(mine):
+                pose = self.camera_pose()
+                points = (self._rays_or_make() * depth[..., None]) @ pose.R.T + pose.t
+                feet = np.array([self.scene.physics.bind(b).xpos[:2] for b in people])
+                d = np.linalg.norm(points[mine][:, None, :2] - feet[None], axis=-1)
+                labels[mine] = 1 + np.argmin(d, axis=1).astype(np.uint8)
+        if any(self.scene.scenario.wall_motion):
+            pose = self.camera_pose()
+            if points is None:
+                points = (self._rays_or_make() * depth[..., None]) @ pose.R.T + pose.t
+            lo, hi = self._wall_box()
+            b = self.scene.physics.bind(self.scene.wall.body)
+            local = (points - b.xpos) @ b.xmat.reshape(3, 3)
+            inside = np.all((local >= lo - BODY_BOX_MARGIN_M) & (local <= hi + BODY_BOX_MARGIN_M), axis=-1)
+            labels[inside & (labels == 0)] = len(people) + 1
+        return labels
+
+    def _rays_or_make(self) -> np.ndarray:
+        if self._rays is None:
+            self._rays = pixel_rays(self.K, self.width, self.height)
+        return self._rays
+
+    def _wall_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """The wall body's geoms' bounding box in its own frame (they are boxes, not rotated in it)."""
+        m = self.scene.physics.model
+        body_id = m.name2id(self.scene.wall.body.full_identifier, "body")  # a mocap body: bind() has no element_id
+        mine = np.asarray(m.geom_bodyid) == body_id
+        pos, size = np.asarray(m.geom_pos)[mine], np.asarray(m.geom_size)[mine]
+        return (pos - size).min(axis=0), (pos + size).max(axis=0)
 
     def still_average(self, n: int) -> np.ndarray:
         """The mean of `n` frames of the scene held still (uint8 RGB), as a user teaching a goal image grabs a

