@@ -1,11 +1,12 @@
-"""Closed-loop speed: per-stage ms and steps/s of the demo run, with and without evaluation, and the
-hybrid's ms beside the ECC baseline's on the same frames in the same process.
+"""Closed-loop speed as a user runs it: per-stage ms and steps/s of the demo run (from each step's wall time, with
+its recording), with and without evaluation; the hybrid's ms in that loop against the same hybrid replayed alone on
+the very frames and template the loop gave it; each camera preset's render cost against `ideal`'s; and the hybrid's
+ms beside the ECC baseline's on the same frames, all in one process.
 
     python experiments/bench_loop.py --out experiments/results/loop_speed
 
-Writes speed.json and speed.md there (the README's *Loop speed* table comes from speed.md). Run it
-on a quiet machine: the steps/s are absolute figures of this machine; the hybrid/ECC ratio is what
-carries across machines.
+Writes speed.json and speed.md there (docs/results.md's loop-speed figures come from them). Run it on a quiet
+machine: the steps/s are absolute figures of this machine; the ratios are what carries across machines.
 
 Configurations (walk_by on the arm, seed 0, the hybrid, 640×480, 240 steps, as `make demo`):
   as_run         evaluation on, .rrd recording with frames, JSON + CSV (what `make demo` does)
@@ -21,6 +22,7 @@ import argparse
 import dataclasses
 import json
 import platform
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -33,26 +35,99 @@ from hvs_sim.bench.track import run_tracker
 from hvs_sim.loop import LoopConfig
 from hvs_sim.runner import run_episode
 from hvs_sim.scene.scenarios import make_scenario
+from hvs_sim.tracking import make_tracker
+from hvs_sim.tracking.base import Tracker
 
-STAGES = ("render", "ground_truth", "track", "control", "physics", "log")
+sys.path.insert(0, str(Path(__file__).parent))
+from bench_render import time_preset
+
+STAGES = ("render", "ground_truth", "track", "control", "physics", "log", "other")
+PRESET_FRAMES = 100  # walk_by hand-held frames per camera preset (the person crosses from frame ~60)
 
 
-def loop_run(name: str, steps: int, evaluate: bool, rrd: bool, multisample: int | None, pipeline: bool, tmp: Path) -> dict:
+def loop_run(name: str, steps: int, evaluate: bool, rrd: bool, multisample: int | None, pipeline: bool, tmp: Path,
+             keep: bool = False) -> dict:
     base = make_scenario("walk_by", mount="arm", seed=0)
     scen = base if multisample is None else dataclasses.replace(
         base, camera=dataclasses.replace(base.camera, multisample=multisample))
     cfg = LoopConfig(steps=steps, evaluate=evaluate, keep_frames=rrd, pipeline=pipeline)
     t0 = time.perf_counter()
-    summary, _ = run_episode(scen, "hybrid", cfg, rrd=str(tmp / f"{name}.rrd") if rrd else None,
-                             json_path=str(tmp / f"{name}.json"), progress=False)
+    summary, records = run_episode(scen, "hybrid", cfg, rrd=str(tmp / f"{name}.rrd") if rrd else None,
+                                   json_path=str(tmp / f"{name}.json"), progress=False, keep_records=True)
     wall = time.perf_counter() - t0
-    stages = {k: summary["timing"][k]["median_ms"] for k in STAGES if k in summary["timing"]}
-    means = {k: summary["timing"][k]["mean_ms"] for k in STAGES if k in summary["timing"]}
+    t = summary["timing"]
+    step_ms = np.array([r.wall_ms for r in records])
     return {"evaluate": evaluate, "rrd": rrd, "multisample": scen.camera.multisample, "pipeline": pipeline,
-            "median_ms": stages,
-            "mean_ms": means, "steps_per_second": summary["steps_per_second"],
+            "median_ms": {k: t[k]["median_ms"] for k in STAGES if "median_ms" in t.get(k, {})},
+            "mean_ms": {k: t[k]["mean_ms"] for k in STAGES if k in t},
+            "recording_thread_cpu_ms": t.get("recording_thread", {}).get("mean_ms"),
+            "steps_per_second": summary["steps_per_second"],  # as run.json reports it: every step, the first too
+            "steps_per_second_after_first": float(1e3 / step_ms[1:].mean()),
+            "first_step_ms": float(step_ms[0]),
             "wall_seconds_with_setup": wall, "converged": summary["converged"],
             "final_error_px": summary["final_error_px"]}
+
+
+class _Taped:
+    """Tracker.init / seed / update patched to keep what the loop gave the tracker and each update's ms."""
+
+    def __init__(self):
+        self.calls, self.ms, self._orig = [], [], (Tracker.init, Tracker.seed, Tracker.update)
+
+    def __enter__(self):
+        init, seed, update = self._orig
+        tape = self
+
+        def taped_update(tracker, frame):
+            tape.calls.append(("update", frame.copy()))
+            t = time.perf_counter()
+            out = update(tracker, frame)
+            tape.ms.append(1e3 * (time.perf_counter() - t))
+            return out
+
+        Tracker.init = lambda tr, frame, roi: (self.calls.append(("init", frame.copy(), roi)), init(tr, frame, roi))[1]
+        Tracker.seed = lambda tr, corners: (self.calls.append(("seed", np.array(corners))), seed(tr, corners))[1]
+        Tracker.update = taped_update
+        return self
+
+    def __exit__(self, *exc):
+        Tracker.init, Tracker.seed, Tracker.update = self._orig
+
+
+def tracker_in_loop(steps: int, tmp: Path) -> dict:
+    """The hybrid's update ms inside the demo's loop (as run: evaluation and recording on) against the same tracker
+    replayed alone on the frames, template and seed the loop gave it (twice; the second, warm, replay counts)."""
+    with _Taped() as tape:
+        loop_run("taped", steps, True, True, None, False, tmp)
+    replays = []
+    for _ in range(2):
+        tracker, ms = make_tracker("hybrid"), []
+        for call in tape.calls:
+            if call[0] == "init":
+                tracker.init(call[1], call[2])
+            elif call[0] == "seed":
+                tracker.seed(call[1])
+            else:
+                t = time.perf_counter()
+                tracker.update(call[1])
+                ms.append(1e3 * (time.perf_counter() - t))
+        replays.append(ms)
+    in_loop, alone = float(np.median(tape.ms)), float(np.median(replays[-1]))
+    return {"frames": len(tape.ms), "in_loop_median_ms": in_loop, "isolated_median_ms": alone,
+            "in_loop_mean_ms": float(np.mean(tape.ms)), "isolated_mean_ms": float(np.mean(replays[-1])),
+            "in_loop_over_isolated": in_loop / alone}
+
+
+def preset_costs(frames: int) -> dict:
+    """Mean ms of an RGB frame through each camera preset (bench_render's timing), and its ratio to `ideal`'s."""
+    from hvs_sim.camera_model import SENSOR_NAMES
+
+    out = {name: time_preset(name, frames)[0] for name in SENSOR_NAMES}
+    for p in out.values():
+        p["ratio_to_ideal"] = p["rgb_ms_mean"] / out["ideal"]["rgb_ms_mean"]
+    out["realistic_mean_ratio_to_ideal"] = float(np.mean([p["ratio_to_ideal"] for n, p in out.items()
+                                                          if n != "ideal"]))
+    return out
 
 
 def tracker_timing(frames: int) -> dict:
@@ -68,14 +143,26 @@ def tracker_timing(frames: int) -> dict:
 
 
 def markdown(res: dict) -> str:
-    lines = ["| configuration | " + " | ".join(STAGES) + " | steps/s | converged | final px |",
-             "|---" * (len(STAGES) + 4) + "|"]
+    lines = ["| configuration | " + " | ".join(STAGES) + " | steps/s (all) | steps/s (after step 0) | converged | final px |",
+             "|---" * (len(STAGES) + 5) + "|"]
     for name, r in res["loop"].items():
-        cells = [f"{r['median_ms'][k]:.1f}" if k in r["median_ms"] else "—" for k in STAGES]
-        lines.append(f"| {name} | " + " | ".join(cells) + f" | {r['steps_per_second']:.1f} | {r['converged']} | "
-                     f"{r['final_error_px']:.2f} |")
-    lines += ["", ("Pipelined: render, ground truth and physics run beside track (the next frame), so their sum is not "
-                   "the step's time; steps/s is from the wall time.")]
+        cells = [f"{r['mean_ms'][k]:.1f}" if k in r["mean_ms"] else "—" for k in STAGES]
+        lines.append(f"| {name} | " + " | ".join(cells) + f" | {r['steps_per_second']:.1f} | "
+                     f"{r['steps_per_second_after_first']:.1f} | {r['converged']} | {r['final_error_px']:.2f} |")
+    lines += ["", ("Mean ms per step. steps/s from each step's wall time (the recording and the CSV included; step 0 "
+                   "holds the set-up: the GL context, the goal image, the tracker's template). Pipelined: render, "
+                   "ground truth and physics run beside track (the next frame), so their sum is not the step's time.")]
+    if res.get("tracker_in_loop"):
+        t = res["tracker_in_loop"]
+        lines += ["", (f"The hybrid in the as-run loop: {t['in_loop_median_ms']:.1f} ms median over {t['frames']} "
+                       f"frames; replayed alone on the same frames: {t['isolated_median_ms']:.1f} ms "
+                       f"({t['in_loop_over_isolated']:.2f}×).")]
+    if res.get("presets"):
+        p = res["presets"]
+        lines += ["", "| camera preset | mean ms | × ideal |", "|---|---|---|"]
+        lines += [f"| {n} | {v['rgb_ms_mean']:.1f} | {v['ratio_to_ideal']:.2f} |" for n, v in p.items()
+                  if isinstance(v, dict)]
+        lines += ["", f"Realistic presets: {p['realistic_mean_ratio_to_ideal']:.2f}× ideal's render cost on average."]
     t = res["trackers"]
     lines += ["", (f"Trackers on the same {res['tracker_frames']} hand-held walk_by frames: hybrid "
                    f"{t['hybrid']['median_ms']:.1f} ms median, ECC {t['ecc']['median_ms']:.2f} ms, ratio "
@@ -88,24 +175,34 @@ def main() -> None:
     ap.add_argument("--out", default="experiments/results/loop_speed")
     ap.add_argument("--steps", type=int, default=240)
     ap.add_argument("--tracker-frames", type=int, default=150)
-    ap.add_argument("--configs", nargs="+", default=["as_run", "no_eval", "pipelined", "pipelined_no_eval", "as_run_ms4"])
+    ap.add_argument("--preset-frames", type=int, default=PRESET_FRAMES, help="0: no per-preset render costs")
+    ap.add_argument("--configs", nargs="+", default=["as_run", "no_rrd", "no_eval", "pipelined"])
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(2)
     # name: (evaluate, rrd, multisample, pipeline)
-    configs = {"as_run": (True, True, None, False), "no_eval": (False, False, None, False),
-               "pipelined": (True, True, None, True), "pipelined_no_eval": (False, False, None, True),
-               "as_run_ms4": (True, True, 4, False), "no_eval_ms4": (False, False, 4, False)}
+    configs = {"as_run": (True, True, None, False), "no_rrd": (True, False, None, False),
+               "no_eval": (False, False, None, False), "pipelined": (True, True, None, True),
+               "pipelined_no_eval": (False, False, None, True), "as_run_ms4": (True, True, 4, False),
+               "no_eval_ms4": (False, False, 4, False)}
     res = {"machine": platform.machine(), "torch_threads": torch.get_num_threads(), "steps": args.steps,
            "tracker_frames": args.tracker_frames, "loop": {}}
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.configs:
             res["loop"][name] = loop_run(name, args.steps, *configs[name], Path(tmp))
             r = res["loop"][name]
-            print(f"{name:12s} " + " ".join(f"{k} {v:.1f}" for k, v in r["median_ms"].items())
-                  + f" ms | {r['steps_per_second']:.1f} steps/s | converged {r['converged']} "
-                  f"{r['final_error_px']:.2f} px", flush=True)
+            print(f"{name:12s} " + " ".join(f"{k} {v:.1f}" for k, v in r["mean_ms"].items())
+                  + f" ms (mean) | {r['steps_per_second']:.1f} steps/s as run, {r['steps_per_second_after_first']:.1f} "
+                  f"after step 0 | converged {r['converged']} {r['final_error_px']:.2f} px", flush=True)
+        res["tracker_in_loop"] = t = tracker_in_loop(args.steps, Path(tmp))
+        print(f"hybrid in the loop {t['in_loop_median_ms']:.1f} ms, alone on the same frames {t['isolated_median_ms']:.1f}"
+              f" ms: {t['in_loop_over_isolated']:.2f}x", flush=True)
+    if args.preset_frames:
+        res["presets"] = p = preset_costs(args.preset_frames)
+        print("render cost: " + ", ".join(f"{n} {v['rgb_ms_mean']:.1f} ms ({v['ratio_to_ideal']:.2f}x)"
+                                          for n, v in p.items() if isinstance(v, dict))
+              + f"; realistic presets {p['realistic_mean_ratio_to_ideal']:.2f}x ideal", flush=True)
     res["trackers"] = tracker_timing(args.tracker_frames)
     t = res["trackers"]
     print(f"hybrid {t['hybrid']['median_ms']:.1f} ms, ecc {t['ecc']['median_ms']:.2f} ms: {t['hybrid_over_ecc']:.1f}×")

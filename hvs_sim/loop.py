@@ -422,7 +422,9 @@ class ServoLoop:
             torch.set_num_threads(threads)
 
     def _sequential(self) -> Iterator[StepRecord]:
-        """Capture, track, control, physics one after another: a frame's command acts at once."""
+        """Capture, track, control, physics one after another: a frame's command acts at once. wall_ms runs from the
+        end of the step before, so what the consumer does with a record (the recording, the CSV) counts in the next."""
+        wall = Stopwatch()
         cap = self._capture()
         ep = self._step_zero(cap)
         for step in range(self.config.steps):
@@ -437,7 +439,7 @@ class ServoLoop:
             timings["control"] += cap.depths_ms
             with lap(timings, "physics"):
                 self.scene.advance(cmd.qdot)
-            yield self._record(step, cap, ep, seen, ctrl, cmd, timings)
+            yield self._record(step, cap, ep, seen, ctrl, cmd, timings, wall_ms=wall.lap())
             if step + 1 < self.config.steps:
                 cap = self._capture()
 

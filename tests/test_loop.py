@@ -109,7 +109,7 @@ def test_a_logging_failure_in_the_writer_thread_is_reported_not_raised(tmp_path,
     def broken(frame, quality=85):
         raise OSError("disk full")
 
-    monkeypatch.setattr(rerun_log, "jpeg", broken)
+    monkeypatch.setattr(rerun_log, "encode_jpeg", broken)
     summary, _ = run_episode(make_scenario("walk_by", mount="arm", camera=SMALL), "ground_truth", LoopConfig(steps=6),
                              rrd=str(tmp_path / "run.rrd"), progress=False, json_path=str(tmp_path / "run.json"))
     assert summary["steps_run"] == 6 and summary["logging_failed"] is True

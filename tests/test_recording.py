@@ -82,3 +82,34 @@ def test_a_live_viewer_and_a_file_both_get_the_steps(tmp_path, monkeypatch):
 def test_the_plot_interval_is_checked(bad):
     with pytest.raises(ConfigError, match="flush_every"):
         ScalarColumns(rr.RecordingStream("hvs_sim_test"), "step", "sim_time", bad)
+
+
+def test_every_step_of_every_entity_is_in_the_recording_sent_as_columns(tmp_path):
+    """The logger buffers its entities' rows and sends them as columns (rr_stream.RowColumns): a file holds one row per
+    step of the frame, the truth's and the tracker's outline, one per moved pose, and the plots', none lost at close."""
+    rrd = tmp_path / "rows.rrd"
+    logger = RerunLogger(recording("hvs_sim_test", rrd=str(rrd)), K, 80, 60, background=True,
+                         plot_flush_every=plot_flush_steps(live=False))
+    for k in range(STEPS):
+        logger.log_step(record(k))
+    logger.close()
+    rows: dict[str, int] = {}
+    for chunk in RrdReader(str(rrd)).store().stream():
+        if not chunk.is_static:
+            rows[chunk.entity_path] = rows.get(chunk.entity_path, 0) + chunk.num_rows
+    for path in ("/world/camera/image", "/world/camera/image/ground_truth", "/world/camera/image/tracked",
+                 "/world/camera/image/desired", "/world/camera", "/plots/error_px", "/plots/twist/vx"):
+        assert rows[path] == STEPS, (path, rows.get(path))  # these records' camera and s* move at every step
+
+
+def test_row_columns_refuse_rows_that_do_not_match_a_paths_earlier_ones():
+    from hvs_sim.errors import StateError
+    from hvs_sim.viz.rr_stream import RowColumns
+
+    cols = RowColumns(rr.RecordingStream("hvs_sim_test"), "step", "sim_time", 10)
+    with pytest.raises(StateError, match="before at"):
+        cols.add("a", rr.Transform3D, translation=[0.0, 0, 0])
+    cols.at(0, 0.0)
+    cols.add("a", rr.Transform3D, translation=[0.0, 0, 0])
+    with pytest.raises(StateError, match="same fields"):
+        cols.add("a", rr.Transform3D, mat3x3=np.eye(3))

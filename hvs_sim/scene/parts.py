@@ -11,6 +11,9 @@ from hvs_sim.errors import ConfigError
 from hvs_sim.scene.flag_art import FLAG_NAMES, flag_path
 from hvs_sim.scene.people import OCCLUDER_GROUP, Person  # noqa: F401  (people live in scene/people/)
 
+TARGET_GROUP = 1  # geom group of the target picture alone (shown like group 0), so that a render can show it and the
+# people only: nothing else can be in front of it, and the occlusion count's segmentation render then shades little
+
 
 class FlagWall:
     """A board with a 3×5 grid of pictures on a mocap body; the target sits in the centre.
@@ -60,7 +63,7 @@ class FlagWall:
             self.flags[name] = self.body.add(
                 "geom", name=f"flag_{name}", type="box", size=[self.THICK, half_w, half_h],
                 pos=[self.THICK, y0 - c * pitch_y, z0 - r * pitch_z], material=mat,
-                contype=0, conaffinity=0)
+                contype=0, conaffinity=0, group=TARGET_GROUP if k == centre else 0)
             if k == centre:
                 self.target = self.flags[name]
         # after the pictures in front of it: drawn later, its hidden part is not shaded (Scene builds front to back)

@@ -24,13 +24,15 @@ import copy
 import logging
 import queue
 import threading
+import time
 
 import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from hvs_sim.camera_model import encode_jpeg
 from hvs_sim.loop import MODES, StepRecord
-from hvs_sim.viz.rr_stream import PLOT_FLUSH_STEPS, ScalarColumns, jpeg, new_recording
+from hvs_sim.viz.rr_stream import JPEG_QUALITY, PLOT_FLUSH_STEPS, RowColumns, ScalarColumns, new_recording
 
 log = logging.getLogger(__name__)
 RERUN_PIXEL_OFFSET = 0.5  # hvs_sim pixel (OpenCV, centres at integers) → rerun image space (centres at +0.5)
@@ -40,6 +42,9 @@ PATH_MAX_POINTS = 2000  # ... and is thinned to half when it has more points tha
 # background=True: at most this many steps wait for the writer thread; a loop that outruns it waits (so memory
 # stays bounded) and that wait is what the loop's "log" stage then measures
 LOG_QUEUE_STEPS = 4
+TRAJECTORY_RGB, TRACKED_RGB, TRUTH_RGB, DESIRED_RGB, OCCLUDER_RGB = (80, 140, 255), (0, 255, 0), (255, 255, 255), \
+    (255, 60, 60), (200, 120, 80)
+TRACKED_RADIUS = 1.5  # px: the tracked outline drawn over the truth's
 MOVED_TOL = 1e-6  # m (positions) and rotation-matrix entries: an entity moved less than this is not logged again
 
 
@@ -104,9 +109,13 @@ class RerunLogger:
         self.background = background
         self._queue: queue.Queue | None = None
         self._writer: threading.Thread | None = None  # started by the first log_step, stopped by drain()
+        self.writer_cpu_ms, self.written = 0.0, 0  # the writer thread's CPU time over the steps it wrote
         self.path: list[np.ndarray] = []
         self._last: dict[str, np.ndarray] = {}  # what each still-or-moving entity was last logged with (_moved)
         self.plots = ScalarColumns(rec, "step", "sim_time", plot_flush_every)  # plots/*
+        # the 3-D and image entities, as columns too: every step to a live viewer (the images must not trail), else
+        # with the plots
+        self.view = RowColumns(rec, "step", "sim_time", 1 if plot_flush_every == PLOT_FLUSH_STEPS else plot_flush_every)
         self._guard(self._static, K, width, height, target_world)
         if config is not None:
             self._guard(self._text, "run/config", "set-up", config)
@@ -116,9 +125,13 @@ class RerunLogger:
             self._guard(self._arm, arm_meshes)
 
     def _write(self) -> None:
-        """The writer thread: logs queued records until it takes the None that drain() puts."""
+        """The writer thread: logs queued records until it takes the None that drain() puts (its CPU time counted in
+        `writer_cpu_ms`: it runs beside the loop, on the same cores)."""
         while (r := self._queue.get()) is not None:
+            t0 = time.thread_time()
             self._guard(self._step, r)
+            self.writer_cpu_ms += 1e3 * (time.thread_time() - t0)
+            self.written += 1
 
     def _arm(self, meshes) -> None:
         for k, (verts, faces, rgba) in enumerate(meshes):
@@ -156,6 +169,7 @@ class RerunLogger:
         from hvs_sim.viz.rr_stream import finish_recording
 
         self.drain()
+        self._guard(self.view.flush)
         self._guard(self.plots.flush)
         try:
             finish_recording(self.rec, self.rrd)
@@ -231,31 +245,32 @@ class RerunLogger:
         self._queue.put(copy.copy(r))  # a copy: the caller may drop the record's frame once this returns
 
     def _step(self, r: StepRecord) -> None:
-        rec = self.rec
-        rec.set_time("step", sequence=r.step)
-        rec.set_time("sim_time", duration=r.time)
+        view = self.view
+        view.at(r.step, r.time)
         if self._moved("world/camera", r.camera.t, r.camera.R):
-            rec.log("world/camera", rr.Transform3D(translation=r.camera.t, mat3x3=r.camera.R))
+            view.add("world/camera", rr.Transform3D, translation=r.camera.t, mat3x3=r.camera.R)
         if self._extend_path(r.camera.t):
-            rec.log("world/trajectory", rr.LineStrips3D([np.array(self.path)], colors=[80, 140, 255]))
+            view.add("world/trajectory", rr.LineStrips3D, strips=np.array(self.path), colors=TRAJECTORY_RGB)
         if r.frame is not None:
-            rec.log("world/camera/image", jpeg(r.frame))
-        closed = lambda p: [np.vstack([p, p[:1]])]
-        off = RERUN_PIXEL_OFFSET
+            view.add("world/camera/image", rr.EncodedImage, blob=encode_jpeg(r.frame, JPEG_QUALITY).tobytes(),
+                     media_type="image/jpeg")
+        closed = lambda p: np.vstack([p, p[:1]]) + RERUN_PIXEL_OFFSET
         if np.all(np.isfinite(r.features)):
-            rec.log("world/camera/image/tracked", rr.LineStrips2D(closed(r.features + off), colors=[0, 255, 0], radii=1.5))
-        rec.log("world/camera/image/ground_truth", rr.LineStrips2D(closed(r.gt_features + off), colors=[255, 255, 255]))
+            view.add("world/camera/image/tracked", rr.LineStrips2D, strips=closed(r.features), colors=TRACKED_RGB,
+                     radii=TRACKED_RADIUS)
+        view.add("world/camera/image/ground_truth", rr.LineStrips2D, strips=closed(r.gt_features), colors=TRUTH_RGB)
         if self._moved("world/camera/image/desired", r.desired):
-            rec.log("world/camera/image/desired", rr.LineStrips2D(closed(r.desired + off), colors=[255, 60, 60]))
+            view.add("world/camera/image/desired", rr.LineStrips2D, strips=closed(r.desired), colors=DESIRED_RGB)
         if r.arm is not None:
             for k, (pos, R) in enumerate(zip(*r.arm)):
                 if self._moved(f"world/arm/mesh_{k}", pos, R):
-                    rec.log(f"world/arm/mesh_{k}", rr.Transform3D(translation=pos, mat3x3=R))
+                    view.add(f"world/arm/mesh_{k}", rr.Transform3D, translation=pos, mat3x3=R)
         if r.people and self._moved("world/occluder", *(x for pose in r.people for x in pose)):
-            centers = [p + R @ np.array([0.0, 0.0, 0.9]) for p, R in r.people]
-            quats = [rr.Quaternion(xyzw=_quat_xyzw(R)) for _, R in r.people]
-            rec.log("world/occluder", rr.Boxes3D(centers=centers, half_sizes=[[0.15, 0.3, 0.9]] * len(centers),
-                                                 quaternions=quats, colors=[200, 120, 80]))
+            view.add("world/occluder", rr.Boxes3D, per_row=len(r.people),
+                     centers=[p + R @ np.array([0.0, 0.0, 0.9]) for p, R in r.people],
+                     half_sizes=[[0.15, 0.3, 0.9]] * len(r.people),
+                     quaternions=[rr.Quaternion(xyzw=_quat_xyzw(R)) for _, R in r.people],
+                     colors=[OCCLUDER_RGB] * len(r.people))
         plot = self.plots
         plot.at(r.step, r.time)
         plot.add("plots/error_px", r.error_px)

@@ -94,12 +94,14 @@ def plot_flush_steps(live: bool) -> int:
     return PLOT_FLUSH_STEPS if live else FILE_PLOT_FLUSH_STEPS
 
 
-class ScalarColumns:
-    """Scalar plots buffered per entity path and sent as columns on two timelines: a sequence (`step`,
-    `frame`) and a duration in seconds (`sim_time`, `video_time`).
+class RowColumns:
+    """Rows of rerun archetypes buffered per entity path and sent as columns (`RecordingStream.send_columns`) on two
+    timelines, a sequence (`step`, `frame`) and a duration in seconds (`sim_time`, `video_time`), every `flush_every`
+    steps: one call per entity and flush instead of one `rec.log` (~0.1 ms of Python each) per entity and step.
 
-    Call `at(index, seconds)` once per step, then `add(path, value)` for each plotted value (a path may
-    skip steps: NaN is not plotted), and `flush()` when the recording ends (also on interruption).
+    Call `at(index, seconds)` once per step, then `add(path, archetype, **fields)` for each entity that has a row at
+    that step (a path may skip steps; every row of a path gives the same fields), and `flush()` when the recording
+    ends (also on interruption). `per_row` > 1: each field holds that many instances per row (boxes of several people).
     """
 
     def __init__(self, rec: rr.RecordingStream, sequence: str, duration: str, flush_every: int = PLOT_FLUSH_STEPS):
@@ -107,7 +109,7 @@ class ScalarColumns:
         self.rec, self.sequence, self.duration, self.flush_every = rec, sequence, duration, flush_every
         self._now: tuple[int, float] | None = None
         self._steps = 0  # steps buffered since the last flush
-        self._series: dict[str, tuple[list[int], list[float], list[float]]] = {}
+        self._rows: dict[str, tuple[type, int, list[int], list[float], dict[str, list]]] = {}
 
     def at(self, index: int, seconds: float) -> None:
         """Start a step; sends what is buffered once `flush_every` steps have been."""
@@ -116,20 +118,33 @@ class ScalarColumns:
         self._now = (int(index), float(seconds))
         self._steps += 1
 
-    def add(self, path: str, value: float) -> None:
+    def add(self, path: str, archetype: type, per_row: int = 1, **fields) -> None:
         if self._now is None:
-            raise StateError("ScalarColumns.add before at(): no step to put the value at")
-        value = float(value)
-        if not np.isfinite(value):
-            return
-        idx, secs, vals = self._series.setdefault(path, ([], [], []))
+            raise StateError(f"{type(self).__name__}.add before at(): no step to put the row at")
+        kind, n, idx, secs, columns = self._rows.setdefault(path, (archetype, per_row, [], [], {}))
+        if kind is not archetype or n != per_row or (columns and set(columns) != set(fields)):
+            raise StateError(f"rows of {path!r} must all be {kind.__name__} with the same fields")
         idx.append(self._now[0])
         secs.append(self._now[1])
-        vals.append(value)
+        for name, value in fields.items():
+            (columns.setdefault(name, []).extend if per_row > 1 else columns.setdefault(name, []).append)(value)
 
     def flush(self) -> None:
-        series, self._series, self._steps = self._series, {}, 0
-        for path, (idx, secs, vals) in series.items():
+        rows, self._rows, self._steps = self._rows, {}, 0
+        for path, (archetype, per_row, idx, secs, columns) in rows.items():
+            cols = archetype.columns(**columns)
+            if per_row > 1:
+                cols = cols.partition([per_row] * len(idx))
             self.rec.send_columns(path, indexes=[rr.TimeColumn(self.sequence, sequence=idx),
-                                                 rr.TimeColumn(self.duration, duration=secs)],
-                                  columns=rr.Scalars.columns(scalars=vals))
+                                                 rr.TimeColumn(self.duration, duration=secs)], columns=cols)
+
+
+class ScalarColumns(RowColumns):
+    """Scalar plots as `RowColumns`: `add(path, value)` per plotted value (NaN is not plotted)."""
+
+    def add(self, path: str, value: float) -> None:  # type: ignore[override]
+        value = float(value)
+        if self._now is None:
+            raise StateError("ScalarColumns.add before at(): no step to put the value at")
+        if np.isfinite(value):
+            super().add(path, rr.Scalars, scalars=value)
