@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import multiprocessing
 import os
@@ -72,8 +73,14 @@ def run_jobs(fn: Callable, jobs: Sequence, workers: int, desc: str, unit: str, p
 
 
 def config_json(config) -> dict:
-    """A frozen benchmark config as JSON-ready fields (tuples as lists)."""
-    return {k: list(v) if isinstance(v, tuple) else v for k, v in config.__dict__.items()}
+    """A frozen benchmark config as JSON-ready fields (tuples as lists; a camera model given as a SensorModel, from
+    Python, as its fields)."""
+    def ready(v):
+        if dataclasses.is_dataclass(v) and not isinstance(v, type):
+            return {k: ready(x) for k, x in dataclasses.asdict(v).items()}
+        return list(v) if isinstance(v, tuple) else v
+
+    return {k: ready(v) for k, v in config.__dict__.items()}
 
 
 def collect_jobs(fn: Callable, jobs: Sequence, config, out: Path, desc: str, unit: str, progress: bool = True) -> list:

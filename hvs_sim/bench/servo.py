@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -237,6 +238,7 @@ def _episode(args):
     (scen_name, method, seed, steps, extra, keep, camera, people, damping, template_from, inset, goal_frames, alpha,
      size, tilt, run_as, arm) = args
     torch.set_num_threads(1 if os.environ.get("HVS_WORKERS", "1") != "1" else 2)
+    started = time.perf_counter()
     tracker, warp, controller, policy = parse_method(run_as)
     scen, draws = episode_start(scen_name, seed, tilt, camera=CameraConfig(sensor=camera, width=size[0], height=size[1]),
                                 people=people, arm=arm)
@@ -247,8 +249,13 @@ def _episode(args):
                              ibvs=IBVSConfig(damping=damping), template_from=template_from if tracked else None,
                              roi_inset_px=inset, goal_frames=goal_frames if goal_template else None,  # with a goal image
                              feature_filter=alpha if tracked else None)  # ... and with tracked corners
+    drawn = time.perf_counter()
     summary, records = run_episode(scen, tracker, loop_config, progress=False, keep_records=keep,
                                    tracker_settings={"warp": warp} if warp else None)
+    done = time.perf_counter()
+    # where an episode's time went, in its worker: finding the start pose, then the run (its steps and their set-up)
+    summary["episode_seconds"] = {"start_pose": drawn - started, "run": done - drawn, "total": done - started,
+                                  "steps": summary["steps"] * summary["timing"]["step"]["mean_ms"] / 1e3}
     summary["method"] = method
     summary["episode_seed"] = seed
     summary["start_offset"] = list(scen.start_offset)
@@ -301,6 +308,16 @@ def method_results(eps: list[dict], success_px: float) -> dict:
     }
 
 
+def throughput(episodes: list[dict], wall_s: float, workers: int) -> dict:
+    """Episodes per hour of the whole run as it went (its wall time, with `workers` processes), and where an episode's
+    time went (medians over the episodes)."""
+    seconds = [e["episode_seconds"] for e in episodes if "episode_seconds" in e]
+    return {"episodes": len(episodes), "wall_seconds": wall_s, "workers": workers,
+            "episodes_per_hour": 3600.0 * len(episodes) / wall_s if wall_s > 0 else None,
+            "median_episode_seconds": {k: float(np.median([s[k] for s in seconds])) for k in seconds[0]}
+            if seconds else None}
+
+
 def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) -> dict:
     from hvs_sim.bench.stats import RULES
     from hvs_sim.viz.figures import servo_figure
@@ -317,15 +334,18 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
             for s in config.scenarios for t in config.trackers for seed in seeds]
     os.environ["HVS_WORKERS"] = str(config.workers)
     episodes, traces = {}, {}
+    wall = time.perf_counter()
     for key, summ, trace in collect_jobs(_episode, jobs, config, out, "bench servo", "episode", progress):
         episodes[key], traces[key] = summ, trace
+    wall = time.perf_counter() - wall
     lo, hi = offset_range(0.8, np.radians(config.tilt_deg))
     summary = {"schema": RESULTS_SCHEMA, "suite": config.suite, **provenance, "config": config_json(config),
                "success_rules": RULES,
                "offset_range": {"low": lo.tolist(), "high": hi.tolist(),
                                 "axes": "dx, dy, dz (m, camera frame), roll, pitch, yaw (rad); standoff 0.8 m",
                                 "note": "draws the arm cannot reach or with the target out of view are drawn again"},
-               "results": {}, "episodes": [dict(e) for e in episodes.values()]}
+               "results": {}, "episodes": [dict(e) for e in episodes.values()],
+               "throughput": throughput(list(episodes.values()), wall, config.workers)}
     for s in config.scenarios:
         for t in config.trackers:
             summary["results"].setdefault(s, {})[t] = method_results([episodes[(s, t, seed)] for seed in seeds],

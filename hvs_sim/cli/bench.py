@@ -208,6 +208,11 @@ def _cmd_bench_sim(args) -> int:
                       f"reached {100 * reached['rate']:.0f}%, CNS {100 * r['success']['cns']['rate']:.0f}%, Felton "
                       f"{100 * r['success']['felton']['rate']:.0f}%, ViSP {100 * r['success']['visp']['rate']:.0f}%; "
                       f"median final {r['median_final_error_px']:.2f} px, {r['median_final_pose_error_mm']:.1f} mm")
+        tp = summary["throughput"]
+        med = tp["median_episode_seconds"]
+        print(f"{tp['episodes']} episodes in {tp['wall_seconds']:.0f} s with {tp['workers']} worker(s): "
+              f"{tp['episodes_per_hour']:.0f} episodes/hour; median episode {med['total']:.1f} s "
+              f"(start pose {med['start_pose']:.1f} s, steps {med['steps']:.1f} s)")
     if args.smoke:
         print(SMOKE_NOTE)
     return 0

@@ -7,7 +7,7 @@ mid-exposure pixel. The pixel collects, at each instant, the light of the point 
 order that is the mid-exposure image sampled at the pixel mirrored along its own path (a gather along the local
 flow, as post-process motion blur does). Taps are BLUR_STEP_PX apart along the longest path, as the sub-frame
 reference spaces its renders (`SensorModel.blur = "subframes"`), so a frame costs one render, one depth read-back
-and a remap per tap instead of a render per sub-frame. Where the flow changes abruptly (a person's edge
+and a remap per tap instead of a render per sub-frame. The paths are found on a grid every FIELD_STRIDE pixels. Where the flow changes abruptly (a person's edge
 over the wall) the gather smears the wrong side: tests/test_sensor.py measures that error against the reference.
 """
 
@@ -20,6 +20,9 @@ import cv2
 import numpy as np
 
 from hvs_sim.camera_model import BLUR_STEP_PX, FIELD_MAX_TAPS
+
+FIELD_STRIDE = 2  # the paths are found every this many pixels and interpolated between (the field is smooth but at
+# depth edges, where the gather is approximate anyway): a quarter of the arithmetic
 
 
 @dataclass(frozen=True)
@@ -80,26 +83,31 @@ def motion_paths(points: np.ndarray, labels: np.ndarray, K: np.ndarray, starts: 
     return u_start, u_end
 
 
-def taps_for(u_start: np.ndarray, u_end: np.ndarray, most: int = FIELD_MAX_TAPS) -> int:
+def displacement(u_start: np.ndarray, u_end: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """(H, W, 2) float32 image motion over the exposure, from paths found on a grid every `FIELD_STRIDE` pixels (or on
+    every pixel) and interpolated to the image's `shape`; a path with an unknown end (a point behind the camera) 0."""
+    ok = np.all(np.isfinite(u_start) & np.isfinite(u_end), axis=-1, keepdims=True)
+    v = np.where(ok, u_end - u_start, np.float32(0.0)).astype(np.float32)
+    if v.shape[:2] != tuple(shape):
+        v = cv2.resize(v, (shape[1], shape[0]), interpolation=cv2.INTER_LINEAR)
+    return v
+
+
+def taps_for(v: np.ndarray, most: int = FIELD_MAX_TAPS) -> int:
     """Taps along the paths so that consecutive ones are ≤ BLUR_STEP_PX apart on the longest, at most `most` (the
     sensor's blur_max_samples: the reference's cap on its renders)."""
-    d = u_end - u_start
-    length2 = d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1]
-    longest = math.sqrt(float(np.nanmax(length2))) if np.any(np.isfinite(length2)) else 0.0
+    longest = math.sqrt(float((v[..., 0] * v[..., 0] + v[..., 1] * v[..., 1]).max())) if v.size else 0.0
     return int(np.clip(math.ceil(longest / BLUR_STEP_PX), 1, min(most, FIELD_MAX_TAPS)))
 
 
-def blur_along_paths(linear: np.ndarray, u_start: np.ndarray, u_end: np.ndarray, taps: int) -> np.ndarray:
+def blur_along_paths(linear: np.ndarray, v: np.ndarray, taps: int) -> np.ndarray:
     """The mean over the exposure of the mid-exposure image `linear` (H, W, 3 float32) gathered along each pixel's
-    path x + s·(e − a), s ∈ [−½, ½] (a, e: the start and end pixels), at s = (j + ½) / taps − ½, as the reference
-    places its sub-frames. Each tap is one bilinear remap of the image itself (taps of taps would add the
-    interpolation's own blur once per pass). Pixels whose path is unknown (a point behind the camera at one end)
-    stay sharp."""
+    path x + s·v, s ∈ [−½, ½] (v: `displacement`), at s = (j + ½) / taps − ½, as the reference places its sub-frames.
+    Each tap is one bilinear remap of the image itself (taps of taps would add the interpolation's own blur once per
+    pass)."""
     h, w = linear.shape[:2]
     xs, ys = np.meshgrid(np.arange(w, dtype=np.float32), np.arange(h, dtype=np.float32))
-    ok = np.all(np.isfinite(u_start) & np.isfinite(u_end), axis=-1)
-    vx = np.where(ok, u_end[..., 0] - u_start[..., 0], np.float32(0.0))
-    vy = np.where(ok, u_end[..., 1] - u_start[..., 1], np.float32(0.0))
+    vx, vy = np.ascontiguousarray(v[..., 0]), np.ascontiguousarray(v[..., 1])
     out = np.zeros_like(linear)
     for j in range(taps):
         s = np.float32((j + 0.5) / taps - 0.5)

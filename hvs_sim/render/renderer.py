@@ -17,7 +17,16 @@ from dm_control.mujoco.wrapper import core as mj_core
 
 from hvs_sim.camera_model import STILL_STREAM, SensorState, decode, distort_points, distortion_maps, light_scale
 from hvs_sim.gl import check_not_forked_after_rendering, note_rendering
-from hvs_sim.render.blur import Rigid, blur_along_paths, camera_motion, motion_paths, pixel_rays, taps_for
+from hvs_sim.render.blur import (
+    FIELD_STRIDE,
+    Rigid,
+    blur_along_paths,
+    camera_motion,
+    displacement,
+    motion_paths,
+    pixel_rays,
+    taps_for,
+)
 from hvs_sim.render.camera import CameraPose, intrinsics, project, transfer_points
 from hvs_sim.scene.parts import OCCLUDER_GROUP, TARGET_GROUP
 from hvs_sim.scene.world import Scene
@@ -31,7 +40,8 @@ OUTLINE_SUBPIXEL = 1 << OUTLINE_SHIFT
 SEG_BOX_MARGIN_PX = 12  # the occlusion count decodes the target's outline box grown by this: its 4 mm thick edges show
 MAX_STILL_FRAMES = 256  # still_average: more frames than a user would grab at the goal
 BLUR_PROBE_MARGIN = 0.25  # ... counted while within this fraction of the image size outside the frame
-PERSON_DEPTH_TOL_M = 0.01  # field blur: a pixel is a person's where the full render's depth is the people-only one's
+PERSON_DEPTH_TOL_RAW = 1e-6  # field blur: a pixel is a person's where the people-only render's raw depth is the full
+# render's (the same fragment: the same value, up to this)
 BODY_BOX_MARGIN_M = 0.005  # field blur: a point within this of the moving wall's boxes rides on the wall
 
 
@@ -193,13 +203,13 @@ class Renderer:
 
     def _field_exposure(self) -> np.ndarray:
         """The exposure as one render at its middle, blurred along each pixel's image motion (`render.blur`)."""
-        scene, exposure = self.scene, self.sensor.exposure_ms * 1e-3
+        scene, exposure, k = self.scene, self.sensor.exposure_ms * 1e-3, FIELD_STRIDE
         try:
             with scene.rewound(exposure / 2):
                 self._set_lights(scene.time - exposure / 2)
                 linear = decode(self._render())
-                depth = self._depth_of_last_render()
-                labels = self._moving_labels(depth)
+                raw = self._depth_buffer()[::k, ::k]  # of the render just made: no second render
+                labels = self._moving_labels(raw, k)
                 cam_mid, bodies_mid = self._poses()
         finally:
             self._set_lights(None)
@@ -209,21 +219,39 @@ class Renderer:
                 cam, bodies = self._poses()
             maps.append([camera_motion(cam_mid, cam)]
                         + [camera_motion(cam_mid, cam, b0, b1) for b0, b1 in zip(bodies_mid, bodies)])
-        points = self._rays_or_make() * depth[..., None]
-        u_start, u_end = motion_paths(points, labels, self.K, *maps)
-        self.blur_taps = taps_for(u_start, u_end, self.sensor.blur_max_samples)
-        return blur_along_paths(linear, u_start, u_end, self.blur_taps) if self.blur_taps > 1 else linear
+        points = self._rays_or_make()[::k, ::k] * self._metres(raw)[..., None]
+        v = displacement(*motion_paths(points, labels, self.K, *maps), (self.height, self.width))
+        self.blur_taps = taps_for(v, self.sensor.blur_max_samples)
+        return blur_along_paths(linear, v, self.blur_taps) if self.blur_taps > 1 else linear
 
-    def _depth_of_last_render(self) -> np.ndarray:
-        """(H, W) float32 depth (m along the optical axis) read back from the render just made: no second render."""
+    def _depth_buffer(self, option=None) -> np.ndarray:
+        """(H, W) float32 raw depth buffer (0 near … 1 far), image rows top down: of the render just made, or
+        (option) of a new render of what `option` shows."""
         physics = self.scene.physics
         raw = np.empty((self.height, self.width), np.float32)
         rect = mujoco.MjrRect(0, 0, self.width, self.height)
-        with physics.contexts.gl.make_current() as ctx:
-            ctx.call(mujoco.mjr_readPixels, None, raw, rect, physics.contexts.mujoco.ptr)
-        extent = physics.model.stat.extent  # as dm_control's Camera.render(depth=True) linearises it
-        near, far = physics.model.vis.map.znear * extent, physics.model.vis.map.zfar * extent
-        return np.flipud(near / (1 - raw * (1 - near / far))).astype(np.float32)
+        if option is None:
+            with physics.contexts.gl.make_current() as ctx:
+                ctx.call(mujoco.mjr_readPixels, None, raw, rect, physics.contexts.mujoco.ptr)
+            return np.flipud(raw)
+        cam = self._camera()
+        cam.update(scene_option=option)
+        flags = cam.scene.flags
+        saved = int(flags[mujoco.mjtRndFlag.mjRND_SEGMENT])
+        flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = 1  # flat colours: the depth is the same, the fragments cheaper
+        try:
+            with physics.contexts.gl.make_current() as ctx:
+                ctx.call(mujoco.mjr_render, rect, cam.scene.ptr, physics.contexts.mujoco.ptr)
+                ctx.call(mujoco.mjr_readPixels, None, raw, rect, physics.contexts.mujoco.ptr)
+        finally:
+            flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = saved
+        return np.flipud(raw)
+
+    def _metres(self, raw: np.ndarray) -> np.ndarray:
+        """Raw depth buffer values → m along the optical axis, as dm_control's Camera.render(depth=True) has them."""
+        m = self.scene.physics.model
+        near, far = m.vis.map.znear * m.stat.extent, m.vis.map.zfar * m.stat.extent
+        return (near / (1 - raw * (1 - near / far))).astype(np.float32)
 
     def _moving_bodies(self) -> list:
         """The bodies that move by themselves: the people shown in the frames, then the wall if it slides."""
@@ -237,28 +265,28 @@ class Renderer:
         bodies = [Rigid(bind(b).xmat.reshape(3, 3).copy(), bind(b).xpos.copy()) for b in self._moving_bodies()]
         return Rigid(pose.R, pose.t), bodies
 
-    def _moving_labels(self, depth: np.ndarray) -> np.ndarray:
-        """(H, W) uint8: 0 where the pixel shows the still world, k where it shows the k-th `_moving_bodies` body.
-        A person's pixels are those where a people-only render (cheap: few fragments) is as near as the full one;
-        the nearest person's feet (in plan) say whose. The wall's are the points inside its boxes."""
-        labels = np.zeros(depth.shape, np.uint8)
+    def _moving_labels(self, raw: np.ndarray, k: int) -> np.ndarray:
+        """uint8 labels of the raw depth `raw` (the render's, every k-th pixel): 0 where the pixel shows the still
+        world, j where it shows the j-th `_moving_bodies` body. A person's pixels are those where a people-only render
+        (cheap: few fragments) is as near as the full one; the nearest person's feet (in plan) say whose. The wall's
+        are the points inside its boxes."""
+        labels = np.zeros(raw.shape, np.uint8)
         people = [p.body for p in self.scene.people] if self.people else []
         points = None
+        pose = self.camera_pose()
         if people:
-            only = self._camera().render(depth=True, scene_option=self._only_people)
-            mine = np.abs(only - depth) < PERSON_DEPTH_TOL_M
+            only = self._depth_buffer(self._only_people)[::k, ::k]
+            mine = (only < 1.0) & (only <= raw + PERSON_DEPTH_TOL_RAW)
             if len(people) == 1:
                 labels[mine] = 1
             elif np.any(mine):
-                pose = self.camera_pose()
-                points = (self._rays_or_make() * depth[..., None]) @ pose.R.T + pose.t
+                points = (self._rays_or_make()[::k, ::k] * self._metres(raw)[..., None]) @ pose.R.T + pose.t
                 feet = np.array([self.scene.physics.bind(b).xpos[:2] for b in people])
                 d = np.linalg.norm(points[mine][:, None, :2] - feet[None], axis=-1)
                 labels[mine] = 1 + np.argmin(d, axis=1).astype(np.uint8)
         if any(self.scene.scenario.wall_motion):
-            pose = self.camera_pose()
             if points is None:
-                points = (self._rays_or_make() * depth[..., None]) @ pose.R.T + pose.t
+                points = (self._rays_or_make()[::k, ::k] * self._metres(raw)[..., None]) @ pose.R.T + pose.t
             lo, hi = self._wall_box()
             b = self.scene.physics.bind(self.scene.wall.body)
             local = (points - b.xpos) @ b.xmat.reshape(3, 3)
