@@ -174,3 +174,20 @@ def test_a_run_that_fails_leaves_nothing_behind(tmp_path, capsys):
                  "--json", str(out / "run.json"), "--rrd", str(out / "run.rrd")]) == 2
     assert "could not start" in capsys.readouterr().err
     assert list(out.iterdir()) == []
+
+
+def test_blur_made_from_the_motion_field_from_the_command_line(tmp_path, capsys, monkeypatch):
+    """--blur field reaches the renderer; where it cannot apply it is refused, never ignored."""
+    from hvs_sim.render.renderer import Renderer
+
+    used = []
+    rgb = Renderer.rgb
+    monkeypatch.setattr(Renderer, "rgb", lambda self: used.append(self.sensor.blur) or rgb(self))
+    assert main(["scene", "--scenario", "walk_by", "--frames", "3", "--width", "160", "--height", "120",
+                 "--camera", "low_light", "--blur", "field", "--format", "png", "--out", str(tmp_path / "f")]) == 0
+    assert used and set(used) == {"field"}
+    _fails(["run", "--steps", "2", "--blur", "field"], capsys, "no exposure time", "phone_handheld")
+    _fails(["bench", "servo", "--suite", "occlusion-v1", "--blur", "field", "--out", str(tmp_path / "s")], capsys,
+           "--blur changes what suite")
+    _fails(["bench", "track", "--imagery", "natural", "--blur", "field", "--out", str(tmp_path / "n")], capsys,
+           "natural imagery")

@@ -31,10 +31,24 @@ def _target_overrides(args) -> dict:
     return overrides
 
 
+def camera_model(preset: str, blur: str | None):
+    """A preset's name, or its SensorModel with its motion blur made another way (`--blur`)."""
+    from hvs_sim.camera_model import sensor_preset
+
+    if blur is None:
+        return preset
+    model = sensor_preset(preset, blur=blur)
+    if model.exposure_ms <= 0:
+        raise ConfigError(f"--blur {blur}: camera {preset!r} has no exposure time, so no motion blur to make; give a "
+                          "camera with one (webcam, phone_handheld, robot_cell, low_light)")
+    return model
+
+
 def _scenario_from_args(args):
     from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 
-    overrides = {"camera": CameraConfig(width=args.width, height=args.height, fovy=args.fovy, sensor=args.camera,
+    overrides = {"camera": CameraConfig(width=args.width, height=args.height, fovy=args.fovy,
+                                        sensor=camera_model(args.camera, getattr(args, "blur", None)),
                                         multisample=args.multisample), **_target_overrides(args)}
     if args.wall_images and not args.wall:
         overrides["wall"] = "flags"  # the folder replaces the preset's wall set
@@ -71,6 +85,7 @@ def _add_scene_args(p: argparse.ArgumentParser, mount: bool) -> None:
                    help=f"the arm the camera rides on (default {DEFAULT_ARM}; hvs-sim scenes --list shows each)")
     p.add_argument("--camera", default="ideal", choices=SENSOR_NAMES,
                    help="camera model: exposure, blur, noise, JPEG, distortion (default: ideal = clean renders)")
+    add_blur_argument(p)
     p.add_argument("--target", default=None, help="target: a flag name or a natural texture name (default: the "
                    "scenario's, star_field)")
     p.add_argument("--target-image", default=None, help="any PNG/JPEG file as the target (aspect ratio kept)")
@@ -124,3 +139,11 @@ _SIGTERM_SEEN = []  # set by the handler: a command may catch the interrupt itse
 def _on_sigterm(signum, frame):
     _SIGTERM_SEEN.append(signum)
     raise Terminated()
+
+
+def add_blur_argument(p) -> None:
+    from hvs_sim.camera_model import BLUR_MODES
+
+    p.add_argument("--blur", default=None, choices=BLUR_MODES,
+                   help="how the camera's motion blur is made: subframes (default: a render per sub-frame of the "
+                        "exposure) or field (one render blurred along each pixel's motion; docs/results.md)")
