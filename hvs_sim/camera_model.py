@@ -18,8 +18,8 @@ Not modelled (say so before trusting a result that depends on them): rolling shu
 denoising and sharpening (a phone's video is cleaner than `phone_handheld`'s raw noise), demosaicing
 (noise here is independent per channel), vignetting, and the frame-to-frame prediction of a video
 codec (per-frame JPEG stands in for its artefacts). `ideal` has every effect off and leaves the
-render untouched (bit for bit). This module is pure numpy/OpenCV and knows nothing of MuJoCo, so
-the scene config can hold a `SensorModel` and the renderer can apply it.
+render untouched (bit for bit). This module is numpy, OpenCV and torch (for the per-pixel arithmetic) and knows
+nothing of MuJoCo, so the scene config can hold a `SensorModel` and the renderer can apply it.
 """
 
 from __future__ import annotations
@@ -70,13 +70,13 @@ _ENCODE_LUT = np.clip(np.round(255 * linear_to_srgb(np.arange(LINEAR_LEVELS) / (
 
 
 _ENCODE_LUT_T = torch.from_numpy(_ENCODE_LUT)
-LUT_MAX_CHANNELS = 4  # cv2.LUT takes images of up to this many channels
+LUT_MAX_CHANNELS = 4  # cv2.LUT takes images of up to this many channels (one channel comes back without its axis)
 
 
 def decode(frame: np.ndarray) -> np.ndarray:
     """uint8 sRGB → float32 linear radiance in [0, 1] (a table lookup: OpenCV's for images, 14× numpy's gather)."""
     frame = np.asarray(frame)
-    if frame.dtype == np.uint8 and frame.ndim in (2, 3) and (frame.ndim == 2 or frame.shape[2] <= LUT_MAX_CHANNELS):
+    if frame.dtype == np.uint8 and (frame.ndim == 2 or (frame.ndim == 3 and 2 <= frame.shape[2] <= LUT_MAX_CHANNELS)):
         return cv2.LUT(np.ascontiguousarray(frame), _DECODE_LUT)
     return _DECODE_LUT[frame]
 
@@ -156,6 +156,9 @@ class SensorModel:
             raise ConfigError(f"sensor blur_max_samples must be an int in [1, 32], got {self.blur_max_samples!r}")
         if self.blur not in BLUR_MODES:
             raise choice_error("sensor blur", self.blur, BLUR_MODES)
+        if self.blur != BLUR_MODES[0] and self.exposure_ms <= 0:
+            raise ConfigError(f"sensor blur={self.blur!r} makes motion blur over the exposure: it needs exposure_ms > 0 "
+                              f"(got {self.exposure_ms})")
         if not (isinstance(self.white_e, (int, float)) and (self.white_e == math.inf or 10 <= self.white_e <= 1e6)):
             raise ConfigError(f"sensor white_e must be in [10, 1e6] electrons or inf (no shot noise), got {self.white_e!r}")
         _check_range("read_noise_e", self.read_noise_e, 0.0, 100.0)

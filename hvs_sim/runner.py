@@ -182,8 +182,8 @@ def _summary(scenario, tracker, stats: RunStats, logger, interrupted: bool) -> d
     if stats.n and logger is not None and logger.written:  # beside the loop: not in the step's stages
         out["timing"]["recording_thread"] = {
             "mean_ms": logger.writer_cpu_ms / logger.written,
-            "note": "CPU time a step's recording took in the writer thread, which runs beside the loop on the same "
-                    "cores (its share of the step's wall time shows in the stages it slowed)"}
+            "note": "CPU time a step's recording took, in the writer thread (beside the loop, on the same cores: its "
+                    "share of the step's wall time shows in the stages it slowed) and in the last rows sent at the end"}
     if logger is not None and logger.error is not None:
         out["recording_error"] = logger.error + "; the recording was removed"
     return out

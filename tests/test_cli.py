@@ -187,6 +187,12 @@ def test_blur_made_from_the_motion_field_from_the_command_line(tmp_path, capsys,
                  "--camera", "low_light", "--blur", "field", "--format", "png", "--out", str(tmp_path / "f")]) == 0
     assert used and set(used) == {"field"}
     _fails(["run", "--steps", "2", "--blur", "field"], capsys, "no exposure time", "phone_handheld")
+    kept = tmp_path / "kept"  # refused before the output folder is touched, --overwrite or not
+    kept.mkdir()
+    (kept / "summary.json").write_text("{}")
+    _fails(["bench", "servo", "--camera", "ideal", "--blur", "field", "--out", str(kept), "--overwrite"], capsys,
+           "no exposure time")
+    assert (kept / "summary.json").read_text() == "{}"
     _fails(["bench", "servo", "--suite", "occlusion-v1", "--blur", "field", "--out", str(tmp_path / "s")], capsys,
            "--blur changes what suite")
     _fails(["bench", "track", "--imagery", "natural", "--blur", "field", "--out", str(tmp_path / "n")], capsys,

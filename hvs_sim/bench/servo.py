@@ -23,7 +23,7 @@ import numpy as np
 
 from hvs_sim.bench.pool import collect_jobs, config_json
 from hvs_sim.bench.suites import TILT_MAX_DEG
-from hvs_sim.camera_model import REALISTIC_PRESET
+from hvs_sim.camera_model import BLUR_MODES, REALISTIC_PRESET
 from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.loop import LoopConfig
 from hvs_sim.outputs import write_atomic
@@ -374,12 +374,19 @@ def _med_ci(r: dict, spec: str) -> str:
     return f"{format(r['median'], spec)} ({format(r['ci95'][0], spec)}–{format(r['ci95'][1], spec)})"
 
 
+def camera_label(camera) -> str:
+    """A preset's name, or a SensorModel's name with the way it makes motion blur when that is not the default."""
+    if isinstance(camera, str):
+        return camera
+    return camera.name if camera.blur == BLUR_MODES[0] else f"{camera.name} ({camera.blur} blur)"
+
+
 def servo_table(summary: dict, config: ServoBenchConfig) -> str:
     from hvs_sim.bench.stats import RULES
 
     suite = f"suite {config.suite}, " if config.suite else ""
     lines = [(f"# Servo benchmark ({suite}{len(config.episode_seeds)} episodes per method and scenario, arm "
-             f"{config.arm}, camera {config.camera}, {config.width}×{config.height})"), "",
+             f"{config.arm}, camera {camera_label(config.camera)}, {config.width}×{config.height})"), "",
              ("Success rules, each with its 95 % Wilson interval (translation and rotation: the camera's full pose "
              "error to the reference pose at the episode's end):"), ""]
     lines += [f"- **{rule}**: {text}" for rule, text in RULES.items()]

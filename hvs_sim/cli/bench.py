@@ -13,7 +13,11 @@ from hvs_sim.outputs import fresh_out_dir, write_atomic
 
 
 def _check_bench_options(args) -> None:
-    """Refuse options that do not apply to the chosen benchmark, rather than ignoring them."""
+    """Refuse options that do not apply to the chosen benchmark, rather than ignoring them (before --out is touched)."""
+    if args.blur and args.what == "track" and args.imagery == "natural":
+        raise ConfigError("--blur: natural imagery is warped pictures, not renders; its blur is the sequence's own "
+                          "(leave --blur out, or use --imagery sim)")
+    camera_model(args.camera, args.blur)  # a camera without an exposure time has no blur to make
     if args.what == "servo":
         for flag, value in (("--imagery natural", args.imagery == "natural"), ("--sources", args.sources),
                             ("--mounts", args.mounts), ("--motion", args.motion)):
@@ -94,9 +98,6 @@ def cmd_bench(args) -> int:
     _check_bench_options(args)
     fresh_out_dir(args.out, args.overwrite, BENCH_OUTPUTS)
     if args.what == "track" and args.imagery == "natural":
-        if args.blur:
-            raise ConfigError("--blur: natural imagery is warped pictures, not renders; its blur is the sequence's own "
-                              "(leave --blur out, or use --imagery sim)")
         status = cmd_bench_natural(args)
     else:
         status = _cmd_bench_sim(args)

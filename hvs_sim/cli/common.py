@@ -37,11 +37,10 @@ def camera_model(preset: str, blur: str | None):
 
     if blur is None:
         return preset
-    model = sensor_preset(preset, blur=blur)
-    if model.exposure_ms <= 0:
+    if sensor_preset(preset).exposure_ms <= 0:
         raise ConfigError(f"--blur {blur}: camera {preset!r} has no exposure time, so no motion blur to make; give a "
                           "camera with one (webcam, phone_handheld, robot_cell, low_light)")
-    return model
+    return sensor_preset(preset, blur=blur)
 
 
 def _scenario_from_args(args):

@@ -83,13 +83,16 @@ def motion_paths(points: np.ndarray, labels: np.ndarray, K: np.ndarray, starts: 
     return u_start, u_end
 
 
-def displacement(u_start: np.ndarray, u_end: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """(H, W, 2) float32 image motion over the exposure, from paths found on a grid every `FIELD_STRIDE` pixels (or on
-    every pixel) and interpolated to the image's `shape`; a path with an unknown end (a point behind the camera) 0."""
+def displacement(u_start: np.ndarray, u_end: np.ndarray, shape: tuple[int, int], stride: int = 1) -> np.ndarray:
+    """(H, W, 2) float32 image motion over the exposure, from paths found at pixels (stride·i, stride·j) and
+    interpolated to the image's `shape` (pixel x reads the grid at x / stride); a path with an unknown end (a point
+    behind the camera) 0."""
     ok = np.all(np.isfinite(u_start) & np.isfinite(u_end), axis=-1, keepdims=True)
     v = np.where(ok, u_end - u_start, np.float32(0.0)).astype(np.float32)
-    if v.shape[:2] != tuple(shape):
-        v = cv2.resize(v, (shape[1], shape[0]), interpolation=cv2.INTER_LINEAR)
+    if stride > 1:
+        xs, ys = np.meshgrid(np.arange(shape[1], dtype=np.float32) / stride,
+                             np.arange(shape[0], dtype=np.float32) / stride)
+        v = cv2.remap(v, xs, ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     return v
 
 

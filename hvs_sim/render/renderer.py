@@ -220,7 +220,7 @@ class Renderer:
             maps.append([camera_motion(cam_mid, cam)]
                         + [camera_motion(cam_mid, cam, b0, b1) for b0, b1 in zip(bodies_mid, bodies)])
         points = self._rays_or_make()[::k, ::k] * self._metres(raw)[..., None]
-        v = displacement(*motion_paths(points, labels, self.K, *maps), (self.height, self.width))
+        v = displacement(*motion_paths(points, labels, self.K, *maps), (self.height, self.width), k)
         self.blur_taps = taps_for(v, self.sensor.blur_max_samples)
         return blur_along_paths(linear, v, self.blur_taps) if self.blur_taps > 1 else linear
 
@@ -432,8 +432,6 @@ class Renderer:
         the target's edge can a pixel be counted differently from a second render with the people hidden
         (test_render: within 0.01 of occlusion); with no person on the target the two agree exactly.
         """
-        # the target and the people only: nothing else is ever in front of the target, and a render of them shades
-        # a few fragments (20 → 3 ms at 640×480 with a person in view); the counts are those of the full view
         uv = outline_px
         box = None
         if np.all(np.isfinite(uv)):
@@ -442,7 +440,7 @@ class Renderer:
             box = (slice(y0, y1), slice(x0, x1)) if x1 > x0 and y1 > y0 else (slice(0, 0), slice(0, 0))
         # the target and the people only (nothing else is ever in front of the target: a render of them shades few
         # fragments), decoded within the target's outline box, where all its pixels are (the counts are those of
-        # the whole view); without an outline, the whole frame
+        # the whole view; 15 → 3 ms at 640×480 with a person in view); without an outline, the whole frame
         ids, types = self._segment(option=self._target_and_people, box=box)
         is_geom = types == int(mujoco.mjtObj.mjOBJ_GEOM)
         visible = int(np.count_nonzero((ids == self._target_id) & is_geom))
