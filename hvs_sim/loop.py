@@ -278,6 +278,11 @@ class ServoLoop:
         check_start_in_view(self.scene, self.renderer)
         self.resolved = self._resolve(tracker, config)
         self.ibvs_config = dataclasses.replace(config.ibvs, damping=self.resolved.damping)
+        # the camera's frames are rendered only when something reads them: a tracker, a law on the images (or an
+        # outside one), a policy, or the records (the recording, the figures); the oracle's features and the
+        # evaluation come from geometry and segmentation, so a ground-truth run renders no frame at all
+        self.renders_frames = bool(self.tracker is not None or self.policy is not None or self.law is not None
+                                   or self.image_law or config.keep_frames)
 
     # the resolved settings under the names the rest of the package reads
     warp = property(lambda self: self.resolved.warp)
@@ -478,7 +483,7 @@ class ServoLoop:
         """Everything a step reads from the scene at its state: the frame and the truth that grades it."""
         r, scene, timings = self.renderer, self.scene, {}
         with lap(timings, "render"):
-            frame = r.rgb()
+            frame = r.rgb() if self.renders_frames else None
         with lap(timings, "ground_truth"):
             gt = r.ground_truth(occlusion=self.config.evaluate, counts=False)
         watch = Stopwatch()

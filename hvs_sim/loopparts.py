@@ -43,7 +43,7 @@ class ResolvedLoop:
 class Capture:
     """What a step reads from the scene at its state (ServoLoop._capture)."""
 
-    frame: np.ndarray
+    frame: np.ndarray | None  # None when nothing reads the frames (ServoLoop.renders_frames)
     gt: GroundTruth
     time: float
     pose_error: np.ndarray

@@ -189,3 +189,19 @@ def test_bad_multisample_is_refused(bad):
 
     with pytest.raises(ConfigError, match="multisample"):
         CameraConfig(multisample=bad)
+
+
+def test_a_ground_truth_run_that_keeps_no_frames_renders_none_and_servoes_the_same(monkeypatch):
+    """The oracle's features and the evaluation come from geometry: with nothing reading the frames (no tracker, law
+    on the images, policy or recording) the camera renders none, and every step is as with the frames rendered."""
+    sc = make_scenario("walk_by", mount="arm", camera=CameraConfig(width=320, height=240, sensor="phone_handheld"))
+    with_frames = list(ServoLoop(sc, "ground_truth", LoopConfig(steps=40, keep_frames=True)))
+    calls = []
+    rgb = Renderer.rgb
+    monkeypatch.setattr(Renderer, "rgb", lambda self: calls.append(1) or rgb(self))
+    loop = ServoLoop(sc, "ground_truth", LoopConfig(steps=40, keep_frames=False))
+    without = list(loop)
+    assert not loop.renders_frames and not calls and all(r.frame is None for r in without)
+    for a, b in zip(with_frames, without, strict=True):
+        assert np.array_equal(a.twist, b.twist) and np.array_equal(a.q, b.q) and a.occlusion == b.occlusion
+    assert ServoLoop(sc, "hybrid", LoopConfig(steps=1, keep_frames=False)).renders_frames  # a tracker reads them
