@@ -98,13 +98,19 @@ def main() -> int:
                   f"{e['median_ms']:.1f} | {e['median_ms'] / ecc_ms[kind]:.1f} |")
     for kind in CASES:
         print(f"auto chose ({kind}): {table[kind]['hybrid_auto_motion']['auto_chose']}")
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    write_atomic(out / "summary.json", json.dumps({"command": " ".join(["python", *sys.argv]), "seeds": args.seeds,
-                                                   "seconds": time.time() - t0, "table": table, "runs": rows},
-                                                  indent=1))
-    print(f"summary: {out / 'summary.json'}")
+    write_summary(args.out, t0, table, rows, seeds=args.seeds)
     return 0
+
+
+def write_summary(out: str, t0: float, table: dict, rows: list[dict], **extra) -> Path:
+    """summary.json in `out` (made if missing), written atomically: the command, what `extra` names, the run's
+    seconds since `t0`, the table and every run."""
+    path = Path(out) / "summary.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_atomic(path, json.dumps({"command": " ".join(["python", *sys.argv]), **extra, "seconds": time.time() - t0,
+                                   "table": table, "runs": rows}, indent=1))
+    print(f"summary: {path}")
+    return path
 
 
 if __name__ == "__main__":

@@ -13,7 +13,6 @@ truth in this footage; the synthetic cases of bench_footage.py measure the posit
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import sys
 import time
@@ -22,10 +21,9 @@ from pathlib import Path
 from tqdm import tqdm
 
 sys.path.insert(0, str(Path(__file__).parent))
-from bench_footage import run_case
+from bench_footage import run_case, write_summary
 
 from hvs_sim.bench.footage import packaged_clip, read_clip, real_cuts
-from hvs_sim.outputs import write_atomic
 
 TRACKERS = ("hybrid_auto_motion", "hybrid", "hybrid_no_cut_test", "deep_lk", "ecc")  # `track`'s default first
 FPS = 25.0  # bikes.mp4
@@ -62,12 +60,7 @@ def main() -> int:
               f"{', '.join('—' if v is None else str(v) for v in e['frames_to_lost'])} | "
               f"{', '.join(f'{v:.0%}' for v in e['aligned_before_cut'])} | {e['lost_share_after_cut']:.0%} | "
               f"{e['median_ms']:.1f} |")
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    write_atomic(out / "summary.json", json.dumps({"command": " ".join(["python", *sys.argv]), "clip": "bikes.mp4",
-                                                   "seconds": time.time() - t0, "table": table, "runs": rows},
-                                                  indent=1))
-    print(f"summary: {out / 'summary.json'}")
+    write_summary(args.out, t0, table, rows, clip="bikes.mp4")
     return 0
 
 

@@ -134,20 +134,14 @@ def packaged_clip(name: str) -> Path:
 
 
 def read_clip(path: Path) -> list[np.ndarray]:
-    """Every frame of a video file as RGB uint8 (OpenCV's decoder)."""
-    cap = cv2.VideoCapture(str(path))
-    frames = []
+    """Every frame of a video file as RGB uint8, read as `hvs-sim track` reads it (video.open_frames)."""
+    from hvs_sim.video import open_frames
+
+    source = open_frames(path)
     try:
-        while True:
-            ok, bgr = cap.read()
-            if not ok:
-                break
-            frames.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+        return [source.first, *source.rest]
     finally:
-        cap.release()
-    if not frames:
-        raise InputError(f"no frames could be read from {path}")
-    return frames
+        source.close()
 
 
 def best_patch(frame: np.ndarray, side: int = REAL_ROI_PX) -> tuple[int, int, int, int]:

@@ -107,7 +107,7 @@ class Renderer:
         self._last: tuple[tuple[int, int], np.ndarray] | None = None  # ((scene resets, frame), frame): one capture a frame
         self.blur_samples = 1  # sub-frame renders used for the last frame (diagnostics)
         self.blur_taps = 1  # field blur: taps along each pixel's motion in the last frame (1: sharp)
-        self._rays: np.ndarray | None = None  # field blur: the pixels' rays, made at the first blurred frame
+        self._rays: np.ndarray | None = None  # field blur: the grid's rays (_field_rays)
         self._only_people = mj_core.MjvOption()
         self._target_and_people = mj_core.MjvOption()  # all that can be over the target's pixels (occlusion_counts)
         for g in range(len(self._only_people.geomgroup)):
@@ -209,7 +209,8 @@ class Renderer:
                 self._set_lights(scene.time - exposure / 2)
                 linear = decode(self._render())
                 raw = self._depth_buffer()[::k, ::k]  # of the render just made: no second render
-                labels = self._moving_labels(raw, k)
+                points = self._field_rays() * self._metres(raw)[..., None]  # camera frame, every k-th pixel
+                labels = self._moving_labels(raw, points, k)
                 cam_mid, bodies_mid = self._poses()
         finally:
             self._set_lights(None)
@@ -219,33 +220,47 @@ class Renderer:
                 cam, bodies = self._poses()
             maps.append([camera_motion(cam_mid, cam)]
                         + [camera_motion(cam_mid, cam, b0, b1) for b0, b1 in zip(bodies_mid, bodies)])
-        points = self._rays_or_make()[::k, ::k] * self._metres(raw)[..., None]
         v = displacement(*motion_paths(points, labels, self.K, *maps), (self.height, self.width), k)
         self.blur_taps = taps_for(v, self.sensor.blur_max_samples)
         return blur_along_paths(linear, v, self.blur_taps) if self.blur_taps > 1 else linear
 
     def _depth_buffer(self, option=None) -> np.ndarray:
         """(H, W) float32 raw depth buffer (0 near … 1 far), image rows top down: of the render just made, or
-        (option) of a new render of what `option` shows."""
-        physics = self.scene.physics
+        (option) of a new, flat-shaded render of what `option` shows (the depth is the same, the fragments cheaper)."""
         raw = np.empty((self.height, self.width), np.float32)
-        rect = mujoco.MjrRect(0, 0, self.width, self.height)
         if option is None:
-            with physics.contexts.gl.make_current() as ctx:
-                ctx.call(mujoco.mjr_readPixels, None, raw, rect, physics.contexts.mujoco.ptr)
-            return np.flipud(raw)
+            self._read_back(depth=raw)
+        else:
+            self._draw(option, (mujoco.mjtRndFlag.mjRND_SEGMENT,), depth=raw)
+        return np.flipud(raw)
+
+    def _draw(self, option, flags_on: tuple, rgb: np.ndarray | None = None, depth: np.ndarray | None = None) -> None:
+        """Render what `option` shows with the render flags `flags_on` set (put back after) and read the buffers asked
+        for back (bottom row first): the segmentation and depth passes dm_control's Camera.render would decode in
+        full."""
         cam = self._camera()
         cam.update(scene_option=option)
         flags = cam.scene.flags
-        saved = int(flags[mujoco.mjtRndFlag.mjRND_SEGMENT])
-        flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = 1  # flat colours: the depth is the same, the fragments cheaper
+        saved = [int(flags[k]) for k in flags_on]
+        physics = self.scene.physics
         try:
+            for k in flags_on:
+                flags[k] = 1
             with physics.contexts.gl.make_current() as ctx:
-                ctx.call(mujoco.mjr_render, rect, cam.scene.ptr, physics.contexts.mujoco.ptr)
-                ctx.call(mujoco.mjr_readPixels, None, raw, rect, physics.contexts.mujoco.ptr)
+                ctx.call(mujoco.mjr_render, self._rect(), cam.scene.ptr, physics.contexts.mujoco.ptr)
+            self._read_back(rgb, depth)
         finally:
-            flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = saved
-        return np.flipud(raw)
+            for k, v in zip(flags_on, saved):
+                flags[k] = v
+
+    def _read_back(self, rgb: np.ndarray | None = None, depth: np.ndarray | None = None) -> None:
+        """The last render's colour and/or depth buffers into `rgb` / `depth` (bottom row first)."""
+        physics = self.scene.physics
+        with physics.contexts.gl.make_current() as ctx:
+            ctx.call(mujoco.mjr_readPixels, rgb, depth, self._rect(), physics.contexts.mujoco.ptr)
+
+    def _rect(self) -> mujoco.MjrRect:
+        return mujoco.MjrRect(0, 0, self.width, self.height)
 
     def _metres(self, raw: np.ndarray) -> np.ndarray:
         """Raw depth buffer values → m along the optical axis, as dm_control's Camera.render(depth=True) has them."""
@@ -265,38 +280,38 @@ class Renderer:
         bodies = [Rigid(bind(b).xmat.reshape(3, 3).copy(), bind(b).xpos.copy()) for b in self._moving_bodies()]
         return Rigid(pose.R, pose.t), bodies
 
-    def _moving_labels(self, raw: np.ndarray, k: int) -> np.ndarray:
-        """uint8 labels of the raw depth `raw` (the render's, every k-th pixel): 0 where the pixel shows the still
-        world, j where it shows the j-th `_moving_bodies` body. A person's pixels are those where a people-only render
-        (cheap: few fragments) is as near as the full one; the nearest person's feet (in plan) say whose. The wall's
-        are the points inside its boxes."""
+    def _moving_labels(self, raw: np.ndarray, points: np.ndarray, k: int) -> np.ndarray:
+        """uint8 labels of the raw depth `raw` (the render's, every k-th pixel; `points` its camera-frame points): 0
+        where the pixel shows the still world, j where it shows the j-th `_moving_bodies` body. A person's pixels are
+        those where a people-only render (cheap: few fragments) is as near as the full one; the nearest person's feet
+        (in plan) say whose. The wall's are the points inside its boxes."""
         labels = np.zeros(raw.shape, np.uint8)
         people = [p.body for p in self.scene.people] if self.people else []
-        points = None
         pose = self.camera_pose()
+        world = None  # the points in the world, when a test needs them
         if people:
             only = self._depth_buffer(self._only_people)[::k, ::k]
             mine = (only < 1.0) & (only <= raw + PERSON_DEPTH_TOL_RAW)
             if len(people) == 1:
                 labels[mine] = 1
             elif np.any(mine):
-                points = (self._rays_or_make()[::k, ::k] * self._metres(raw)[..., None]) @ pose.R.T + pose.t
+                world = points @ pose.R.T + pose.t
                 feet = np.array([self.scene.physics.bind(b).xpos[:2] for b in people])
-                d = np.linalg.norm(points[mine][:, None, :2] - feet[None], axis=-1)
+                d = np.linalg.norm(world[mine][:, None, :2] - feet[None], axis=-1)
                 labels[mine] = 1 + np.argmin(d, axis=1).astype(np.uint8)
         if any(self.scene.scenario.wall_motion):
-            if points is None:
-                points = (self._rays_or_make()[::k, ::k] * self._metres(raw)[..., None]) @ pose.R.T + pose.t
+            world = points @ pose.R.T + pose.t if world is None else world
             lo, hi = self._wall_box()
             b = self.scene.physics.bind(self.scene.wall.body)
-            local = (points - b.xpos) @ b.xmat.reshape(3, 3)
+            local = (world - b.xpos) @ b.xmat.reshape(3, 3)
             inside = np.all((local >= lo - BODY_BOX_MARGIN_M) & (local <= hi + BODY_BOX_MARGIN_M), axis=-1)
             labels[inside & (labels == 0)] = len(people) + 1
         return labels
 
-    def _rays_or_make(self) -> np.ndarray:
+    def _field_rays(self) -> np.ndarray:
+        """The rays of every FIELD_STRIDE-th pixel (made at the first blurred frame)."""
         if self._rays is None:
-            self._rays = pixel_rays(self.K, self.width, self.height)
+            self._rays = pixel_rays(self.K, self.width, self.height)[::FIELD_STRIDE, ::FIELD_STRIDE].copy()
         return self._rays
 
     def _wall_box(self) -> tuple[np.ndarray, np.ndarray]:
@@ -374,29 +389,16 @@ class Renderer:
         whole frame, 8 of its 11 ms at 640×480 (the render itself is 2.4 ms)."""
         if option is None:
             option = self._hide_people if hide_people else self._show_people
-        cam = self._camera()
-        cam.update(scene_option=option)
-        flags, keys = cam.scene.flags, (mujoco.mjtRndFlag.mjRND_SEGMENT, mujoco.mjtRndFlag.mjRND_IDCOLOR)
-        saved = [int(flags[k]) for k in keys]
-        physics = self.scene.physics
         if getattr(self, "_seg_buf", None) is None:
             self._seg_buf = np.empty((self.height, self.width, 3), np.uint8)
-        rect = mujoco.MjrRect(0, 0, self.width, self.height)
-        try:
-            for k in keys:
-                flags[k] = 1
-            with physics.contexts.gl.make_current() as ctx:
-                ctx.call(mujoco.mjr_render, rect, cam.scene.ptr, physics.contexts.mujoco.ptr)
-                ctx.call(mujoco.mjr_readPixels, self._seg_buf, None, rect, physics.contexts.mujoco.ptr)
-        finally:
-            for k, v in zip(keys, saved):
-                flags[k] = v
+        self._draw(option, (mujoco.mjtRndFlag.mjRND_SEGMENT, mujoco.mjtRndFlag.mjRND_IDCOLOR), rgb=self._seg_buf)
         rgb = np.flipud(self._seg_buf)  # the buffer's first row is the image's bottom one
         if box is not None:
             rgb = rgb[box]
         code = rgb[..., 0].astype(np.int32) | (rgb[..., 1].astype(np.int32) << 8) | (rgb[..., 2].astype(np.int32) << 16)
-        table = np.full((cam.scene.ngeom + 1, 2), -1, np.int32)  # ID colour (segid + 1; 0: nothing) → (id, type)
-        for g in cam.scene.geoms[:cam.scene.ngeom]:
+        scn = self._camera().scene
+        table = np.full((scn.ngeom + 1, 2), -1, np.int32)  # ID colour (segid + 1; 0: nothing) → (id, type)
+        for g in scn.geoms[:scn.ngeom]:
             if g.segid != -1:
                 table[g.segid + 1] = (g.objid, g.objtype)
         seg = table[code]
