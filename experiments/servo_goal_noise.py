@@ -1,4 +1,4 @@
-"""How far the camera alone keeps the 6-DOF servo from its goal (issue 14): the homography hybrid's corners with the
+"""How far the camera alone keeps the 6-DOF servo from its goal: the homography hybrid's corners with the
 camera held still AT the reference pose, through the camera model and parts of it.
 
 The servo ends where the tracked corners sit on s*, so a tracker bias at the goal itself moves the final pose, and
@@ -10,7 +10,7 @@ the tracker's error projected on L's two weakest left singular vectors (mean = b
 and the camera translation each would stand for (mm: px / f / σ × |v_translation|), and the mean corner error.
 
 Variants of the benchmark's `phone_handheld` camera: as it is; without JPEG; without exposure changes (no
-auto-exposure drift, no light dimming); without sensor noise; and `ideal` (clean renders).
+auto-exposure drift, no light dimming); without sensor noise; `ideal` (clean renders); and the `robot_cell` camera.
 
     python experiments/servo_goal_noise.py [--seeds 300 301] [--frames 150]
         [--json experiments/results/servo_goal_noise.json]
@@ -43,13 +43,14 @@ from hvs_sim.tracking import make_tracker
 from hvs_sim.tracking.frames import inset_roi, roi_corners, roi_from_corners
 
 BASE = "phone_handheld"
-# what each variant turns off in the BASE camera (None: the `ideal` camera)
-VARIANTS: dict[str, dict | None] = {
+# what each variant turns off in the BASE camera (None: the `ideal` camera; a name: that preset as it is)
+VARIANTS: dict[str, dict | str | None] = {
     BASE: {},
     "no_jpeg": {"jpeg_quality": 0},
     "no_exposure_changes": {"ae_drift": 0.0, "light_dim": 0.0},
     "no_sensor_noise": {"white_e": math.inf, "read_noise_e": 0.0},
     "ideal": None,
+    "robot_cell": "robot_cell",
 }
 WEAK = 2  # L's weakest directions reported
 BLOCK = 30  # frames per block mean (1 s at 30 Hz): a slow drift shows as blocks that differ more than the noise allows
@@ -59,6 +60,8 @@ def sensor_for(variant: str):
     off = VARIANTS[variant]
     if off is None:
         return "ideal"
+    if isinstance(off, str):
+        return sensor_preset(off)
     return dataclasses.replace(sensor_preset(BASE), name=variant, **off) if off else sensor_preset(BASE)
 
 
