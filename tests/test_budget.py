@@ -61,7 +61,8 @@ def test_the_noise_model_matches_the_camera_model_s_own_frames():
 
 def test_budget_prints_the_bound_for_a_built_in_target(tmp_path, capsys):
     out = tmp_path / "b"
-    assert main(["budget", "--camera", "ideal", "phone_handheld", "--target", "crescent", "--out", str(out)]) == 0
+    assert main(["budget", "--camera", "ideal", "phone_handheld", "--target", "crescent", "--bound-only",
+                 "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert "| ideal | crescent | 0.15 | 0.8 |" in text and "| phone_handheld | crescent |" in text
     rows = json.loads((out / "budget.json").read_text())["rows"]
@@ -71,3 +72,41 @@ def test_budget_prints_the_bound_for_a_built_in_target(tmp_path, capsys):
     assert (out / "budget.png").stat().st_size > 5_000
     assert main(["budget", "--target-width", "0.05", "--standoff", "1.4", "--out", str(tmp_path / "c")]) == 2
     assert "too small" in capsys.readouterr().err
+    assert main(["budget", "--bound-only", "--episodes", "2", "--out", str(tmp_path / "d")]) == 2
+    assert "not both" in capsys.readouterr().err
+    assert main(["budget", "--episodes", "-1", "--out", str(tmp_path / "e")]) == 2
+    assert not (tmp_path / "d").exists() and not (tmp_path / "e").exists()
+
+
+def test_the_prediction_is_where_the_loop_stops_given_the_tracker_s_gain_and_errors():
+    """A bias alone is the answer's length; a gain G moves the stop to −(I + G)⁻¹ e; noise averages over the frames."""
+    from hvs_sim.bench.budget import Measured, predict
+
+    def m(bias, gain=((0.0, 0.0), (0.0, 0.0)), noise=(0.0, 0.0), near=(0.0, 0.0)):
+        return Measured((180.0, 180.0), bias, noise, gain, near, 90, 24)
+
+    assert predict(m((3.0, 4.0)), 19) == pytest.approx(5.0)
+    # the tracker sees only half of the camera's motion along the first direction: the loop stops twice as far
+    assert predict(m((3.0, 0.0), gain=((-0.5, 0.0), (0.0, 0.0))), 19) == pytest.approx(6.0)
+    # zero bias, unit Gaussian spread per direction: the median length of a 2-D standard normal, √(2 ln 2)
+    assert predict(m((0.0, 0.0), noise=(4.0, 4.0)), 16) == pytest.approx(np.sqrt(2 * np.log(2)), rel=0.02)
+    assert predict(m((0.0, 0.0), noise=(4.0, 4.0)), 64) < predict(m((0.0, 0.0), noise=(4.0, 4.0)), 16)
+
+
+def test_budget_measures_the_tracker_and_runs_the_loop_on_a_clean_camera(tmp_path, capsys):
+    """Through `ideal` the tracker held at the goal has no bias and no noise; around it, its error is what the
+    render leaves (small, not zero); one closed-loop episode ends near the goal; the table shows both."""
+    from hvs_sim.bench import budget as b
+
+    scen = b.budget_scenario("ideal", 0.8)
+    m = b.measure(scen, hold_frames=4, near_poses=6)
+    assert max(map(abs, m.bias_mm)) < 0.1 and max(m.noise_mm) < 0.05  # the same frame each time
+    assert 0 < max(m.near_mm) < 5 and all(180 < v < 185 for v in m.mm_per_px)
+    out = tmp_path / "b"
+    assert main(["budget", "--camera", "ideal", "--episodes", "1", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "What the loop reaches" in text and "| ideal | star_field | 0.15 |" in text
+    row = json.loads((out / "budget.json").read_text())["rows"][0]
+    assert len(row["closed_loop"]) == 1 and row["closed_loop"][0]["seed"] == b.EPISODE_SEED0
+    assert 0 < row["closed_loop_median_mm"] < 10  # converged: the benchmark's bound
+    assert 0 < row["predicted_median_mm"] < 10 and row["measured"]["hold_frames"] == b.HOLD_FRAMES

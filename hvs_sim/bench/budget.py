@@ -8,6 +8,18 @@ feature filter effectively averages, and as the floor the goal template's own no
 GOAL_FRAMES frames; its noise is frozen into the template: a bias no filtering removes). A bound, not a prediction of
 what a given tracker reaches: biases (exposure changes between the goal image and the live frames, the target's
 relief) come on top; `experiments/servo_goal_noise.py` measures them.
+
+On top of the bound, `measure` finds what the loop's tracker (the homography hybrid) does with this camera and
+target, and `predict` turns it into the final pose error to expect:
+- held at the goal for HOLD_FRAMES frames: its bias (the goal template's frozen noise, exposure changes seen through
+  JPEG) and its frame-to-frame noise, along L's two weakest directions (sideways shift traded against tilt), where
+  the loop's last millimetres lie;
+- around the goal, on clean renders (the `ideal` camera at this size: no noise at all): the error a view a few
+  millimetres off the goal leaves along those directions (NEAR_POSES views, ±NEAR_LATERAL_M of translation each),
+  a deterministic floor that no filter averages (`experiments/servo_pose_bias.py`);
+- the prediction: the median length of bias + noise (averaged by the feature filter) + near-goal error, the last
+  two drawn as Gaussians of the measured spreads (PREDICTION_SAMPLES draws, seeded).
+`closed_loop` runs a few servo episodes (the benchmark's `clear` start poses) for the figure to compare with.
 """
 
 from __future__ import annotations
@@ -20,14 +32,23 @@ from hvs_sim.camera_model import jpeg_variance, output_variance, sensor_preset, 
 from hvs_sim.control.bound import PoseBound, pose_bound
 from hvs_sim.control.dvs import gradients
 from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
+from hvs_sim.control.ibvs import interaction_matrix
 from hvs_sim.errors import ConfigError, InputError
+from hvs_sim.geometry import offset_pose
 from hvs_sim.loop import GOAL_ROI_INSET_PX
 from hvs_sim.loopparts import GOAL_FRAMES
-from hvs_sim.tracking.frames import inset_roi, roi_from_corners
+from hvs_sim.tracking.frames import inset_roi, roi_corners, roi_from_corners
 
 GREY = np.array([0.299, 0.587, 0.114])  # the trackers' grey (OpenCV's RGB→grey weights)
 FIGURE_STANDOFFS = (0.5, 0.65, 0.8, 1.0, 1.2)  # m: the figure's accuracy against standoff ...
 FIGURE_WIDTHS = (0.10, 0.15, 0.30)  # m: ... for these target widths
+HOLD_FRAMES = 90  # frames the camera is held at the goal (3 s at 30 Hz) for the tracker's bias and noise there
+NEAR_POSES = 24  # clean views around the goal along L's two weakest directions ...
+NEAR_LATERAL_M = 0.005  # ... each up to this much translation from it (the loop's last millimetres)
+WEAK = 2  # L's weakest directions measured
+PREDICTION_SAMPLES = 20000  # draws of the final pose error for its predicted median
+EPISODE_SEED0 = 200  # closed-loop episodes use the servo benchmark's `clear` start poses from this seed
+BUDGET_TRACKER, BUDGET_WARP = "hybrid", "homography"  # the loop's tracker on six DOF
 
 
 def filter_frames(alpha: float = FEATURE_FILTER_ALPHA) -> float:
@@ -52,12 +73,27 @@ def goal_view(scenario):
     clean = encode(linear * np.float32(gain))
     var = output_variance(model, linear, gain) + jpeg_variance(clean, model.jpeg_quality)
     grey_var = (var * GREY ** 2).sum(axis=2)
+    return clean, grey_var, r.K, template_roi(corners, scenario.standoff)
+
+
+def template_roi(corners: np.ndarray, standoff: float) -> tuple[int, int, int, int]:
+    """The template the loop tracks: the target's outline inset by GOAL_ROI_INSET_PX; a clear error when that is too
+    small to track."""
     try:
-        roi = inset_roi(roi_from_corners(corners), GOAL_ROI_INSET_PX)
+        return inset_roi(roi_from_corners(corners), GOAL_ROI_INSET_PX)
     except InputError:
-        raise ConfigError(f"the target is too small in the image at {scenario.standoff} m to be tracked (its template "
+        raise ConfigError(f"the target is too small in the image at {standoff} m to be tracked (its template "
                           f"would be under the trackers' minimum); give a larger target or a shorter standoff") from None
-    return clean, grey_var, r.K, roi
+
+
+def weak_directions(K: np.ndarray, corners_px: np.ndarray, depth: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """L's WEAK weakest directions at four corners (pixels) of a fronto-parallel target at `depth`, weakest first:
+    (U (8, WEAK), the corner motions; Vt (WEAK, 6), the camera twists; mm of camera translation per px along each)."""
+    xy = (np.asarray(corners_px, float) - K[:2, 2]) / np.diag(K)[:2]
+    U, S, Vt = np.linalg.svd(interaction_matrix(xy, np.full(len(xy), depth)))
+    idx = [len(S) - 1 - k for k in range(WEAK)]
+    mm = np.array([1e3 * np.linalg.norm(Vt[i][:3]) / (K[0, 0] * S[i]) for i in idx])
+    return U[:, idx], Vt[idx], mm
 
 
 def view_bound(clean: np.ndarray, grey_var: np.ndarray, K: np.ndarray, roi, depth: float) -> PoseBound:
@@ -82,6 +118,13 @@ class Budget:
     filtered: PoseBound  # over filter_frames() frames
     template_floor: PoseBound  # the goal template's own noise (GOAL_FRAMES frames averaged)
     filter_frames: float
+    measured: Measured | None = None  # the loop's tracker with this camera (measure), when asked for
+    predicted_mm: float | None = None  # predict(measured)
+    closed_loop: tuple[dict, ...] = ()  # closed_loop's episodes
+
+    @property
+    def closed_loop_median_mm(self) -> float | None:
+        return float(np.median([r["final_pose_error_mm"] for r in self.closed_loop])) if self.closed_loop else None
 
     def row(self) -> dict:
         return {"camera": self.camera, "target": self.target, "target_width_m": self.target_width_m,
@@ -92,15 +135,26 @@ class Budget:
                 "filter_frames": self.filter_frames,
                 "template_floor_mm": self.template_floor.translation_mm,
                 "template_floor_deg": self.template_floor.rotation_deg,
-                "one_frame_per_dof": self.one_frame.per_dof()}
+                "one_frame_per_dof": self.one_frame.per_dof(),
+                "measured": self.measured.row() if self.measured is not None else None,
+                "predicted_median_mm": self.predicted_mm, "closed_loop": list(self.closed_loop),
+                "closed_loop_median_mm": self.closed_loop_median_mm}
+
+
+def budget_scenario(camera: str, standoff: float, supersample: int = 1, **scene):
+    """The still scene the budget is computed in: `clear`, the camera on the arm (make_scenario's `arm` and target
+    settings in `scene`), the goal at `standoff`."""
+    from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+
+    return make_scenario("clear", mount="arm", camera=CameraConfig(sensor=sensor_preset(camera), supersample=supersample),
+                         standoff=standoff, **scene)
 
 
 def budget(camera: str = "phone_handheld", standoff: float = 0.8, **scene) -> Budget:
-    """The bound for a camera preset and a target (make_scenario's target settings) at a standoff."""
-    from hvs_sim.scene.scenarios import CameraConfig, make_scenario
-
+    """The bound for a camera preset and a target (make_scenario's target and arm settings) at a standoff; `estimate`
+    adds what the loop reaches."""
     sensor = sensor_preset(camera)
-    scen = make_scenario("clear", mount="arm", camera=CameraConfig(sensor=sensor), standoff=standoff, **scene)
+    scen = budget_scenario(camera, standoff, **scene)
     clean, grey_var, K, roi = goal_view(scen)
     x0, y0, w, h = roi
     patch = grey_var[y0:y0 + h, x0:x0 + w]
@@ -110,6 +164,152 @@ def budget(camera: str = "phone_handheld", standoff: float = 0.8, **scene) -> Bu
     n = filter_frames()
     return Budget(sensor.name, scen.target_label, scen.target_width, standoff, (w, h),
                   float(np.sqrt(np.median(patch[np.isfinite(patch)]))), one, one.scaled(n), one.scaled(GOAL_FRAMES), n)
+
+
+@dataclasses.dataclass(frozen=True)
+class Measured:
+    """The loop's tracker with this camera and target, along L's WEAK weakest directions (mm of camera translation,
+    weakest first)."""
+    mm_per_px: tuple[float, ...]
+    bias_mm: tuple[float, ...]  # held at the goal: the mean error over the frames
+    noise_mm: tuple[float, ...]  # held at the goal: the frame-to-frame sd
+    # clean views around the goal: the error as a linear function of the camera's offset along the directions
+    # (near_gain: mm of error per mm of offset, rows the error's direction) and what that leaves (root mean square)
+    near_gain: tuple[tuple[float, ...], ...]
+    near_mm: tuple[float, ...]
+    hold_frames: int
+    near_poses: int
+
+    def row(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+def _goal_tracker(goal: np.ndarray, roi):
+    from hvs_sim.tracking import make_tracker
+
+    tracker = make_tracker(BUDGET_TRACKER, warp=BUDGET_WARP)
+    tracker.init(goal, roi)
+    return tracker
+
+
+def measure(scenario, hold_frames: int = HOLD_FRAMES, near_poses: int = NEAR_POSES, seed: int = 0) -> Measured:
+    """The tracker held at the goal through the scenario's camera, and on clean views around the goal."""
+    from hvs_sim.render.renderer import Renderer
+    from hvs_sim.scene.world import Scene
+    from hvs_sim.tracking.warp import perspective_transform
+
+    for name, value in (("hold_frames", hold_frames), ("near_poses", near_poses)):
+        if not isinstance(value, int) or value < 2:
+            raise ConfigError(f"{name} must be a whole number of at least 2, got {value!r}")
+    scene = Scene(scenario)
+    q0 = scene.reference_configuration()
+    with scene.posed(q0):  # the goal image as the loop takes it; then time runs with the arm held there
+        teacher = Renderer(scene, people=False)
+        goal, c0 = teacher.still_average(GOAL_FRAMES), teacher.ground_truth(occlusion=False).corners
+        roi = template_roi(c0, scenario.standoff)
+        roi0 = roi_corners(roi)
+        U, Vt, mm = weak_directions(teacher.K, roi0, scenario.standoff)
+        camera = Renderer(scene, people=False)
+        tracker = _goal_tracker(goal, roi)
+        tracker.seed(np.eye(3))
+        held = []
+        for _ in range(hold_frames):
+            scene.advance(None)
+            frame, gt = camera.rgb(), camera.ground_truth(occlusion=False).corners
+            held.append((tracker.update(frame).corners - camera.transfer(c0, gt, roi0)).ravel() @ U)
+    held = np.array(held) * mm
+    # the same target through a camera without noise, blur or exposure changes, at the same size and field of view
+    clean = Scene(dataclasses.replace(scenario, camera=dataclasses.replace(scenario.camera, sensor="ideal")))
+    r = Renderer(clean, people=False)
+    with clean.posed(q0):
+        goal, c0 = r.rgb(), r.ground_truth(occlusion=False).corners
+    tracker = _goal_tracker(goal, roi)
+    ref = clean.reference_pose()
+    rng = np.random.default_rng([seed, 35])
+    near, offsets = [], []
+    for _ in range(near_poses):  # a twist along the weak directions, each scaled to NEAR_LATERAL_M of translation
+        a = rng.uniform(-NEAR_LATERAL_M, NEAR_LATERAL_M, WEAK)
+        offsets.append(1e3 * a)
+        twist = sum(a[k] * Vt[k] / np.linalg.norm(Vt[k][:3]) for k in range(WEAK))
+        # small angles: offset_pose takes (roll about z, pitch about x, yaw about y)
+        q = clean.solve_ik(*offset_pose(*ref, np.r_[twist[:3], twist[5], twist[3], twist[4]]), q0=q0)
+        with clean.posed(q):
+            frame, gt = r.rgb(), r.ground_truth(occlusion=False).corners
+        truth = r.transfer(c0, gt, roi0)
+        tracker.seed(perspective_transform(roi0, truth))
+        for _ in range(2):  # the second from the first's answer, as the loop tracks a still camera
+            corners = tracker.update(frame).corners
+        near.append((corners - truth).ravel() @ U)
+    near = np.array(near) * mm
+    A = np.c_[np.array(offsets), np.ones(near_poses)]
+    coef, *_ = np.linalg.lstsq(A, near, rcond=None)  # near ≈ offsets @ G.T + c
+    gain, rest = coef[:WEAK].T, near - A @ coef
+    return Measured(tuple(mm.tolist()), tuple(held.mean(axis=0).tolist()), tuple(held.std(axis=0).tolist()),
+                    tuple(tuple(g) for g in gain.tolist()), tuple(np.sqrt(np.mean(rest ** 2, axis=0)).tolist()),
+                    hold_frames, near_poses)
+
+
+def predict(m: Measured, frames: float) -> float:
+    """The median final pose error to expect (mm). The loop stops where the tracked corners say the camera is at the
+    goal: offset a with a + G a + e = 0, G the near-goal gain and e the held bias plus the noise averaged over
+    `frames` plus what the gain leaves of the near-goal error, the last two drawn as Gaussians of their measured
+    spreads along each direction; the median length of a = −(I + G)⁻¹ e over the draws."""
+    spread = np.sqrt(np.square(m.noise_mm) / frames + np.square(m.near_mm))
+    e = np.asarray(m.bias_mm) + np.random.default_rng(0).standard_normal((PREDICTION_SAMPLES, WEAK)) * spread
+    a = np.linalg.solve(np.eye(WEAK) + np.asarray(m.near_gain), e.T).T
+    return float(np.median(np.linalg.norm(a, axis=1)))
+
+
+def closed_loop(camera: str, standoff: float, episodes: int, progress=None, seed0: int = EPISODE_SEED0,
+                supersample: int = 1, **scene) -> list[dict]:
+    """`episodes` servo runs of the loop's tracker on six DOF from the servo benchmark's `clear` start poses (seeds
+    seed0…), each as long as the benchmark's; their final pose errors. `progress(k)` after each."""
+    from hvs_sim.bench.servo import EXTRA_STEPS, episode_scenario
+    from hvs_sim.loop import LoopConfig
+    from hvs_sim.runner import run_episode
+    from hvs_sim.scene.scenarios import CameraConfig
+
+    if not isinstance(episodes, int) or episodes < 0:
+        raise ConfigError(f"episodes must be a whole number ≥ 0, got {episodes!r}")
+    runs = []
+    for k in range(episodes):
+        seed = seed0 + k
+        scen = episode_scenario("clear", seed, camera=CameraConfig(sensor=sensor_preset(camera), supersample=supersample),
+                                standoff=standoff, **scene)
+        summary, _ = run_episode(scen, BUDGET_TRACKER, LoopConfig(steps=scen.n_frames + EXTRA_STEPS, keep_frames=False,
+                                                                  evaluate=False),
+                                 progress=False, tracker_settings={"warp": BUDGET_WARP})
+        runs.append({"seed": seed, "final_pose_error_mm": summary["final_pose_error_mm"],
+                     "final_pose_error_deg": summary["final_pose_error_deg"], "held_to_end": summary["held_to_end"]})
+        if progress is not None:
+            progress(k + 1)
+    return runs
+
+
+def estimate(b: Budget, episodes: int, progress=None, **scene) -> Budget:
+    """`b` with the tracker measured, the prediction, and `episodes` closed-loop runs (0: none)."""
+    m = measure(budget_scenario(b.camera, b.standoff_m, **scene))
+    runs = closed_loop(b.camera, b.standoff_m, episodes, progress, **scene)
+    return dataclasses.replace(b, measured=m, predicted_mm=predict(m, b.filter_frames), closed_loop=tuple(runs))
+
+
+def _pair(values, spec: str = ".2f") -> str:
+    return " / ".join(f"{v:{spec}}" for v in values)
+
+
+def estimate_table(rows: list[Budget]) -> str:
+    """What the loop reaches, for the rows that were estimated (along L's two weakest directions, weakest first)."""
+    lines = [("| camera | target | width (m) | held at the goal: bias (mm) | noise a frame (mm) | around the goal, "
+              "clean (mm) | predicted median final error (mm) | closed loop: median final error (mm), episodes |"),
+             "|---|---|---|---|---|---|---|---|"]
+    for b in rows:
+        m = b.measured
+        if m is None:
+            continue
+        loop = (f"{b.closed_loop_median_mm:.2f} ({len(b.closed_loop)})" if b.closed_loop else "not run")
+        lines.append(f"| {b.camera} | {b.target} | {b.target_width_m:g} | {_pair(m.bias_mm, '+.2f')} | "
+                     f"{_pair(m.noise_mm)} | {_pair(m.near_mm)} | **{b.predicted_mm:.2f}** | {loop} |")
+    return "\n".join(lines) + "\n"
 
 
 def table(rows: list[Budget]) -> str:

@@ -48,7 +48,8 @@ def _scenario_from_args(args):
 
     overrides = {"camera": CameraConfig(width=args.width, height=args.height, fovy=args.fovy,
                                         sensor=camera_model(args.camera, getattr(args, "blur", None)),
-                                        multisample=args.multisample), **_target_overrides(args)}
+                                        multisample=args.multisample, supersample=args.supersample),
+                 **_target_overrides(args)}
     if args.wall_images and not args.wall:
         overrides["wall"] = "flags"  # the folder replaces the preset's wall set
     for key in ("wall", "wall_images", "people"):
@@ -68,9 +69,11 @@ def _add_scene_args(p: argparse.ArgumentParser, mount: bool) -> None:
     from hvs_sim.camera_model import SENSOR_NAMES
     from hvs_sim.scene.scenarios import (
         DEFAULT_MULTISAMPLE,
+        DEFAULT_SUPERSAMPLE,
         MULTISAMPLE_CHOICES,
         PEOPLE_STYLES,
         SCENARIO_NAMES,
+        SUPERSAMPLE_CHOICES,
         WALL_SETS,
     )
 
@@ -98,6 +101,9 @@ def _add_scene_args(p: argparse.ArgumentParser, mount: bool) -> None:
     p.add_argument("--fovy", type=float, default=45.0, help="vertical field of view in degrees")
     p.add_argument("--multisample", type=int, default=DEFAULT_MULTISAMPLE, choices=MULTISAMPLE_CHOICES,
                    help="anti-aliasing samples per pixel of the render (0 = off, about half the render time)")
+    p.add_argument("--supersample", type=int, default=DEFAULT_SUPERSAMPLE, choices=SUPERSAMPLE_CHOICES,
+                   help="each pixel the mean of k×k samples of the scene, as a sensor's pixel integrates light over "
+                        "its area (1 = off; 2 costs about 3× the render time; docs/results.md)")
 
 
 def _provenance(argv: list[str]) -> dict:

@@ -15,7 +15,15 @@ import numpy as np
 from dm_control.mujoco import engine
 from dm_control.mujoco.wrapper import core as mj_core
 
-from hvs_sim.camera_model import STILL_STREAM, SensorState, decode, distort_points, distortion_maps, light_scale
+from hvs_sim.camera_model import (
+    STILL_STREAM,
+    SensorState,
+    decode,
+    distort_points,
+    distortion_maps,
+    encode,
+    light_scale,
+)
 from hvs_sim.gl import check_not_forked_after_rendering, note_rendering
 from hvs_sim.render.blur import (
     FIELD_STRIDE,
@@ -114,6 +122,8 @@ class Renderer:
             self._only_people.geomgroup[g] = int(g == OCCLUDER_GROUP)
             self._target_and_people.geomgroup[g] = int(g in (OCCLUDER_GROUP, TARGET_GROUP))
         self._cam: engine.Camera | None = None  # made at the first render (the fork check ran in __init__)
+        self.supersample = cam.supersample
+        self._cam_ss: engine.Camera | None = None  # the colour renders at supersample× the size (supersample > 1)
 
     @staticmethod
     def intrinsics_of(scenario) -> np.ndarray:
@@ -132,10 +142,23 @@ class Renderer:
         # the Camera returns a flipped view of its own buffer, which the next render overwrites
         return self._camera().render(scene_option=self._show_people if self.people else self._hide_people).copy()
 
+    def _render_linear(self) -> np.ndarray:
+        """H×W×3 linear float32 light of one colour render; with supersampling, the mean of each pixel's k×k samples
+        (rendered at k× the size; the mean is taken in linear light, as a pixel integrates light)."""
+        k = self.supersample
+        if k == 1:
+            return decode(self._render())
+        if self._cam_ss is None:
+            note_rendering()
+            self._cam_ss = engine.Camera(self.scene.physics, self.height * k, self.width * k, self._camera_id)
+        big = self._cam_ss.render(scene_option=self._show_people if self.people else self._hide_people)
+        return cv2.resize(decode(big), (self.width, self.height), interpolation=cv2.INTER_AREA)
+
     def rgb(self) -> np.ndarray:
-        """H×W×3 uint8 RGB frame as the camera delivers it (the raw render for the `ideal` model)."""
+        """H×W×3 uint8 RGB frame as the camera delivers it (the raw render for the `ideal` model; supersampled, its
+        mean per pixel)."""
         if self._ideal:
-            return self._render()
+            return self._render() if self.supersample == 1 else encode(self._render_linear())
         scene = self.scene
         key = (scene.resets, scene.frame_index)
         if self._last is not None and self._last[0] == key:
@@ -191,7 +214,7 @@ class Renderer:
             for dt in offsets:
                 with scene.rewound(float(dt)):
                     self._set_lights(scene.time - float(dt))
-                    sub = decode(self._render())
+                    sub = self._render_linear()
                 linear = sub if linear is None else cv2.add(linear, sub, dst=linear)
         finally:
             self._set_lights(None)

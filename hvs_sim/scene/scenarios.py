@@ -32,6 +32,12 @@ MULTISAMPLE_CHOICES = (0, 2, 4, 8)
 # ≤ 2 px share by −0.3 (ideal) and +0.6 points (phone_handheld), within the spread of seeds, and cost 1.7–3×
 # the render time (README, *Render settings*)
 DEFAULT_MULTISAMPLE = 0
+# Each pixel the mean of k×k samples of the scene (rendered at k× the size, averaged in linear light): a sensor's pixel
+# integrates the light over its area, and the renderer's one texture sample per pixel does not, so a texture finer
+# than a pixel (the flags' weave and print noise) aliases into patterns that move unlike the scene. Off by default:
+# 2× costs about 3× the render time (docs/results.md, the pose bound)
+SUPERSAMPLE_CHOICES = (1, 2, 3)
+DEFAULT_SUPERSAMPLE = 1
 
 
 @dataclass(frozen=True)
@@ -46,8 +52,13 @@ class CameraConfig:
     # MuJoCo's off-screen multisampling (visual/quality/offsamples), samples per pixel: anti-aliased
     # geometry edges at about twice the render time of a 640×480 frame
     multisample: int = DEFAULT_MULTISAMPLE
+    supersample: int = DEFAULT_SUPERSAMPLE  # samples per pixel side, SUPERSAMPLE_CHOICES
 
     def __post_init__(self):
+        ss = self.supersample
+        if isinstance(ss, bool) or not isinstance(ss, (int, np.integer)) or ss not in SUPERSAMPLE_CHOICES:
+            raise ConfigError(f"camera supersample must be one of {', '.join(map(str, SUPERSAMPLE_CHOICES))} "
+                              f"(samples per pixel side; 1 = off), got {self.supersample!r}")
         ms = self.multisample
         if isinstance(ms, bool) or not isinstance(ms, (int, np.integer)) or ms not in MULTISAMPLE_CHOICES:
             raise ConfigError(f"camera multisample must be one of {', '.join(map(str, MULTISAMPLE_CHOICES))} "
@@ -59,6 +70,9 @@ class CameraConfig:
         if not isinstance(self.fovy, (int, float)) or not 10.0 <= float(self.fovy) <= 120.0:
             raise ConfigError(f"camera fovy must be a number of degrees in [10, 120], got {self.fovy!r}")
         object.__setattr__(self, "sensor", sensor_preset(self.sensor))
+        if self.supersample > 1 and self.sensor.blur == "field" and self.sensor.exposure_ms > 0:
+            raise ConfigError("supersampling and the motion-field blur do not go together (the field blur reads the "
+                              "depth of its one render at the frame's size): use blur='subframes' or supersample=1")
 
 
 @dataclass(frozen=True)

@@ -49,9 +49,9 @@ class Scene:
         root = mjcf.RootElement(model="hvs_scene")
         root.option.timestep = 1.0 / (scenario.fps * PHYSICS_SUBSTEPS)
         glob = getattr(root.visual, "global")
-        glob.offwidth, glob.offheight = cam.width, cam.height
+        glob.offwidth, glob.offheight = cam.width * cam.supersample, cam.height * cam.supersample
         if framebuffer is not None:
-            glob.offwidth, glob.offheight = max(cam.width, framebuffer[0]), max(cam.height, framebuffer[1])
+            glob.offwidth, glob.offheight = max(glob.offwidth, framebuffer[0]), max(glob.offheight, framebuffer[1])
         # fixed extent so that clip planes do not depend on where things are: near 1.5 cm, far 30 m
         root.statistic.extent = 3.0
         root.visual.map.znear = 0.005
