@@ -3,6 +3,9 @@ per camera preset, and a figure of one frame through each preset.
 
     python experiments/bench_render.py --frames 100 --json experiments/results/render.json \
         --figure experiments/results/figures/camera_presets.png
+
+`--supersample 2 3` also times the presets with each pixel the mean of k×k samples (CameraConfig.supersample), as
+ratios to the same preset without; `--figure ''` writes no figure.
 """
 
 from __future__ import annotations
@@ -17,18 +20,19 @@ import numpy as np
 
 from hvs_sim.camera_model import BLUR_MODES, SENSOR_NAMES, sensor_preset
 from hvs_sim.render.renderer import Renderer
-from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+from hvs_sim.scene.scenarios import SUPERSAMPLE_CHOICES, CameraConfig, make_scenario
 from hvs_sim.scene.world import Scene
 
 FIGURE_FRAMES = (40, 78)  # walk_by hand-held seed 0: the camera drifting, and the person's edge crossing the target
 CROP = (slice(150, 330), slice(300, 540))  # a zoom on the target and the person's edge
 
 
-def time_preset(preset: str, frames: int, blur: str | None = None) -> tuple[dict, dict[int, np.ndarray]]:
+def time_preset(preset: str, frames: int, blur: str | None = None,
+                supersample: int = 1) -> tuple[dict, dict[int, np.ndarray]]:
     """Median / p95 ms of the RGB frame through a camera preset over the first `frames` frames of walk_by (blur: the
-    preset's motion blur made another way, SensorModel.blur)."""
+    preset's motion blur made another way, SensorModel.blur; supersample: CameraConfig.supersample)."""
     sensor = sensor_preset(preset) if blur is None else sensor_preset(preset, blur=blur)
-    scene = Scene(make_scenario("walk_by", mount="handheld", camera=CameraConfig(sensor=sensor)))
+    scene = Scene(make_scenario("walk_by", mount="handheld", camera=CameraConfig(sensor=sensor, supersample=supersample)))
     r = Renderer(scene)
     ms, samples, taps, kept = [], [], [], {}
     for k in range(max(frames, max(FIGURE_FRAMES) + 1)):
@@ -78,6 +82,8 @@ def main() -> None:
     ap.add_argument("--blur", nargs="+", default=list(BLUR_MODES), choices=BLUR_MODES,
                     help="motion blur ways to time each preset with (the first is the default's row)")
     ap.add_argument("--no-mounts", action="store_true", help="only the presets (not the mounts with and without shadows)")
+    ap.add_argument("--supersample", type=int, nargs="*", default=[], choices=[k for k in SUPERSAMPLE_CHOICES if k > 1],
+                    help="also time the presets supersampled k×k (their first blur way)")
     args = ap.parse_args()
     out = {"machine": platform.processor() or platform.machine(), "frames": args.frames, "camera_presets": {}}
     kept = {}
@@ -101,7 +107,16 @@ def main() -> None:
     if "realistic_mean_ratio_to_ideal" in out:
         print(f"realistic presets ({args.blur[0]} blur): mean render cost {out['realistic_mean_ratio_to_ideal']:.2f}x "
               "ideal's")
-    preset_figure(kept, Path(args.figure))
+    for k in args.supersample:
+        for preset in args.presets:
+            plain = out["camera_presets"][preset]
+            row, _ = time_preset(preset, args.frames, args.blur[0] if preset != "ideal" else None, supersample=k)
+            row["ratio_to_plain"] = row["rgb_ms_mean"] / plain["rgb_ms_mean"]
+            out.setdefault("supersampled", {})[f"{preset}:x{k}"] = row
+            print(f"camera {preset:12s} supersampled {k}x{k}: rgb mean {row['rgb_ms_mean']:.1f} ms, "
+                  f"{row['ratio_to_plain']:.2f}x the same preset without")
+    if args.figure:
+        preset_figure(kept, Path(args.figure))
     for mount in (() if args.no_mounts else ("handheld", "arm")):
         for shadows in (False, True):
             scene = Scene(make_scenario("walk_by", mount=mount, shadows=shadows))

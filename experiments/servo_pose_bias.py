@@ -14,7 +14,7 @@ one frame against the goal template. Reported per variant: the error projected o
 vectors, as px and as the camera translation it stands for (mm), root mean square over the poses; and the worst
 corner error. A variant whose error is smaller lets the loop settle nearer the goal.
 
-    python experiments/servo_pose_bias.py [--poses 40] [--seed 0] [--around weak|all]
+    python experiments/servo_pose_bias.py [--poses 40] [--seed 0] [--around weak|all] [--supersample 1|2|3]
         [--json experiments/results/servo_pose_bias.json]
 """
 
@@ -38,7 +38,7 @@ from hvs_sim.geometry import offset_pose
 from hvs_sim.loop import GOAL_ROI_INSET_PX
 from hvs_sim.loopparts import GOAL_FRAMES
 from hvs_sim.render.renderer import Renderer
-from hvs_sim.scene.scenarios import make_scenario
+from hvs_sim.scene.scenarios import SUPERSAMPLE_CHOICES, CameraConfig, make_scenario
 from hvs_sim.scene.world import Scene
 from hvs_sim.tracking import aligner, make_tracker
 from hvs_sim.tracking.frames import inset_roi, roi_corners, roi_from_corners
@@ -74,6 +74,8 @@ def main() -> None:
     ap.add_argument("--lateral", type=float, default=5.0, help="mm sideways (twice this in depth)")
     ap.add_argument("--tilt", type=float, default=0.4, help="degrees of pitch, yaw and roll (--around all)")
     ap.add_argument("--around", choices=("weak", "all"), default="weak")
+    ap.add_argument("--supersample", type=int, default=1, choices=SUPERSAMPLE_CHOICES,
+                    help="samples per pixel side of the renders (CameraConfig.supersample)")
     ap.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=list(VARIANTS))
     ap.add_argument("--json", default="experiments/results/servo_pose_bias.json")
     args = ap.parse_args()
@@ -83,7 +85,7 @@ def main() -> None:
     if not out.parent.is_dir():
         raise InputError(f"--json: folder {out.parent} does not exist")
     t0 = time.perf_counter()
-    scene = Scene(make_scenario("clear", mount="arm", seed=args.seed))
+    scene = Scene(make_scenario("clear", mount="arm", seed=args.seed, camera=CameraConfig(supersample=args.supersample)))
     renderer = Renderer(scene, people=False)
     q0 = scene.reference_configuration()
     with scene.posed(q0):
@@ -134,7 +136,7 @@ def main() -> None:
         print(f"{name:24s} weakest {rms[0]:.4f} px ({mm[0]:.2f} mm), 2nd {rms[1]:.4f} px ({mm[1]:.2f} mm), together "
               f"{rows[name]['weak_mm']:.2f} mm | worst corner median {rows[name]['median_worst_corner_px']:.3f} px, "
               f"max {rows[name]['worst_corner_px']:.3f} px")
-    out.write_text(json.dumps({"poses": args.poses, "seed": args.seed, "around": args.around, "lateral_mm": args.lateral, "tilt_deg": args.tilt,
+    out.write_text(json.dumps({"poses": args.poses, "seed": args.seed, "around": args.around, "supersample": args.supersample, "lateral_mm": args.lateral, "tilt_deg": args.tilt,
                                "mm_per_px": mm_per_px, "wall_s": time.perf_counter() - t0, "variants": rows,
                                "pose_errors": poses}, indent=1))
     print(f"wrote {out}")

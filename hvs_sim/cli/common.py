@@ -103,7 +103,7 @@ def _add_scene_args(p: argparse.ArgumentParser, mount: bool) -> None:
                    help="anti-aliasing samples per pixel of the render (0 = off, about half the render time)")
     p.add_argument("--supersample", type=int, default=DEFAULT_SUPERSAMPLE, choices=SUPERSAMPLE_CHOICES,
                    help="each pixel the mean of k×k samples of the scene, as a sensor's pixel integrates light over "
-                        "its area (1 = off; 2 costs about 3× the render time; docs/results.md)")
+                        "its area (1 = off; 2 costs 2–4× a frame's render; docs/results.md)")
 
 
 def _provenance(argv: list[str]) -> dict:

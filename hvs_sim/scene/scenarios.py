@@ -35,7 +35,7 @@ DEFAULT_MULTISAMPLE = 0
 # Each pixel the mean of k×k samples of the scene (rendered at k× the size, averaged in linear light): a sensor's pixel
 # integrates the light over its area, and the renderer's one texture sample per pixel does not, so a texture finer
 # than a pixel (the flags' weave and print noise) aliases into patterns that move unlike the scene. Off by default:
-# 2× costs about 3× the render time (docs/results.md, the pose bound)
+# at 2 a frame costs 1.9–3.6× as much (robot_cell to ideal; docs/results.md, the pose bound)
 SUPERSAMPLE_CHOICES = (1, 2, 3)
 DEFAULT_SUPERSAMPLE = 1
 
