@@ -31,6 +31,10 @@ HELD_OUT_SEED0 = 210  # the held-out episodes' first seed (the budget's own are 
 TOLERANCE = 0.3
 
 
+def ratio_free(mm: float | None) -> str:
+    return "none" if mm is None else f"{mm:.2f}"
+
+
 def one(camera: str, width: float, episodes: int) -> dict:
     import torch
 
@@ -43,7 +47,7 @@ def one(camera: str, width: float, episodes: int) -> dict:
     held = b.closed_loop(camera, STANDOFF, episodes, seed0=HELD_OUT_SEED0, target_width=width)
     median = float(np.median([r["final_pose_error_mm"] for r in held]))
     return {"camera": camera, "target_width_m": width, "budget": est.row(), "held_out": held,
-            "held_out_median_mm": median, "model_ratio": est.predicted_mm / median,
+            "held_out_median_mm": median, "model_ratio": None if est.predicted_mm is None else est.predicted_mm / median,
             "handful_ratio": est.closed_loop_median_mm / median, "seconds": time.perf_counter() - t0}
 
 
@@ -64,7 +68,7 @@ def main() -> None:
         for f in as_completed(futures):
             r = f.result()
             rows.append(r)
-            print(f"{r['camera']:15s} {r['target_width_m']:.2f} m: model {r['budget']['predicted_median_mm']:.2f} mm, "
+            print(f"{r['camera']:15s} {r['target_width_m']:.2f} m: model {ratio_free(r['budget']['predicted_median_mm'])} mm, "
                   f"3 episodes {r['budget']['closed_loop_median_mm']:.2f} mm, held-out {r['held_out_median_mm']:.2f} mm "
                   f"({len(jobs) - len(rows)} to go)", flush=True)
     rows.sort(key=lambda r: (CAMERAS.index(r["camera"]), r["target_width_m"]))
@@ -75,10 +79,10 @@ def main() -> None:
         bud = r["budget"]
 
         def ratio(x):
-            return f"{x:.2f}" + ("" if abs(x - 1) <= TOLERANCE else " ✗")
+            return "none ✗" if x is None else f"{x:.2f}" + ("" if abs(x - 1) <= TOLERANCE else " ✗")
 
         lines.append(f"| {r['camera']} | {r['target_width_m']:g} | {bud['filtered_mm']:.2f} | "
-                     f"{bud['predicted_median_mm']:.2f} | {bud['closed_loop_median_mm']:.2f} | "
+                     f"{ratio_free(bud['predicted_median_mm'])} | {bud['closed_loop_median_mm']:.2f} | "
                      f"{r['held_out_median_mm']:.2f} | {ratio(r['model_ratio'])} | {ratio(r['handful_ratio'])} |")
     text = "\n".join(lines) + "\n"
     write_atomic(out / "validation.md", text)

@@ -91,6 +91,7 @@ def test_the_prediction_is_where_the_loop_stops_given_the_tracker_s_gain_and_err
     # zero bias, unit Gaussian spread per direction: the median length of a 2-D standard normal, √(2 ln 2)
     assert predict(m((0.0, 0.0), noise=(4.0, 4.0)), 16) == pytest.approx(np.sqrt(2 * np.log(2)), rel=0.02)
     assert predict(m((0.0, 0.0), noise=(4.0, 4.0)), 64) < predict(m((0.0, 0.0), noise=(4.0, 4.0)), 16)
+    assert predict(m((1.0, 0.0), gain=((-1.0, 0.0), (0.0, 0.0))), 19) is None  # it does not see the offset at all
 
 
 def test_budget_measures_the_tracker_and_runs_the_loop_on_a_clean_camera(tmp_path, capsys):

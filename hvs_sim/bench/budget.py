@@ -47,6 +47,7 @@ NEAR_POSES = 24  # clean views around the goal along L's two weakest directions 
 NEAR_LATERAL_M = 0.005  # ... each up to this much translation from it (the loop's last millimetres)
 WEAK = 2  # L's weakest directions measured
 PREDICTION_SAMPLES = 20000  # draws of the final pose error for its predicted median
+MAX_SEEN_CONDITION = 1e3  # beyond this the tracked corners barely follow some offset: no prediction
 EPISODE_SEED0 = 200  # closed-loop episodes use the servo benchmark's `clear` start poses from this seed
 BUDGET_TRACKER, BUDGET_WARP = "hybrid", "homography"  # the loop's tracker on six DOF
 
@@ -249,14 +250,17 @@ def measure(scenario, hold_frames: int = HOLD_FRAMES, near_poses: int = NEAR_POS
                     hold_frames, near_poses)
 
 
-def predict(m: Measured, frames: float) -> float:
+def predict(m: Measured, frames: float) -> float | None:
     """The median final pose error to expect (mm). The loop stops where the tracked corners say the camera is at the
     goal: offset a with a + G a + e = 0, G the near-goal gain and e the held bias plus the noise averaged over
     `frames` plus what the gain leaves of the near-goal error, the last two drawn as Gaussians of their measured
     spreads along each direction; the median length of a = −(I + G)⁻¹ e over the draws."""
     spread = np.sqrt(np.square(m.noise_mm) / frames + np.square(m.near_mm))
     e = np.asarray(m.bias_mm) + np.random.default_rng(0).standard_normal((PREDICTION_SAMPLES, WEAK)) * spread
-    a = np.linalg.solve(np.eye(WEAK) + np.asarray(m.near_gain), e.T).T
+    seen = np.eye(WEAK) + np.asarray(m.near_gain)  # how the tracked corners move with the camera, per mm
+    if np.linalg.cond(seen) > MAX_SEEN_CONDITION:  # the tracker does not see the offset: no place to stop
+        return None
+    a = np.linalg.solve(seen, e.T).T
     return float(np.median(np.linalg.norm(a, axis=1)))
 
 
@@ -307,8 +311,10 @@ def estimate_table(rows: list[Budget]) -> str:
         if m is None:
             continue
         loop = (f"{b.closed_loop_median_mm:.2f} ({len(b.closed_loop)})" if b.closed_loop else "not run")
+        predicted = (f"**{b.predicted_mm:.2f}**" if b.predicted_mm is not None
+                     else "none: the tracker does not follow the camera near the goal")
         lines.append(f"| {b.camera} | {b.target} | {b.target_width_m:g} | {_pair(m.bias_mm, '+.2f')} | "
-                     f"{_pair(m.noise_mm)} | {_pair(m.near_mm)} | **{b.predicted_mm:.2f}** | {loop} |")
+                     f"{_pair(m.noise_mm)} | {_pair(m.near_mm)} | {predicted} | {loop} |")
     return "\n".join(lines) + "\n"
 
 
