@@ -37,6 +37,7 @@ from hvs_sim.errors import InputError
 from hvs_sim.geometry import offset_pose
 from hvs_sim.loop import GOAL_ROI_INSET_PX
 from hvs_sim.loopparts import GOAL_FRAMES
+from hvs_sim.outputs import write_atomic
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import SUPERSAMPLE_CHOICES, CameraConfig, make_scenario
 from hvs_sim.scene.world import Scene
@@ -136,7 +137,7 @@ def main() -> None:
         print(f"{name:24s} weakest {rms[0]:.4f} px ({mm[0]:.2f} mm), 2nd {rms[1]:.4f} px ({mm[1]:.2f} mm), together "
               f"{rows[name]['weak_mm']:.2f} mm | worst corner median {rows[name]['median_worst_corner_px']:.3f} px, "
               f"max {rows[name]['worst_corner_px']:.3f} px")
-    out.write_text(json.dumps({"poses": args.poses, "seed": args.seed, "around": args.around, "supersample": args.supersample, "lateral_mm": args.lateral, "tilt_deg": args.tilt,
+    write_atomic(out, json.dumps({"poses": args.poses, "seed": args.seed, "around": args.around, "supersample": args.supersample, "lateral_mm": args.lateral, "tilt_deg": args.tilt,
                                "mm_per_px": mm_per_px, "wall_s": time.perf_counter() - t0, "variants": rows,
                                "pose_errors": poses}, indent=1))
     print(f"wrote {out}")

@@ -10,7 +10,7 @@ from hvs_sim.camera_model import SensorState, jpeg_variance, output_variance, se
 from hvs_sim.cli import main
 from hvs_sim.control.bound import pose_bound
 from hvs_sim.control.dvs import luminance_interaction
-from hvs_sim.errors import InputError
+from hvs_sim.errors import ConfigError, InputError
 
 
 def test_a_ramp_bounds_sideways_translation_as_the_closed_form_says():
@@ -76,14 +76,16 @@ def test_budget_prints_the_bound_for_a_built_in_target(tmp_path, capsys):
     assert "not both" in capsys.readouterr().err
     assert main(["budget", "--episodes", "-1", "--out", str(tmp_path / "e")]) == 2
     assert not (tmp_path / "d").exists() and not (tmp_path / "e").exists()
+    # a folder of earlier results is refused before any measuring, not after
+    assert main(["budget", "--bound-only", "--out", str(out)]) == 2 and "not empty" in capsys.readouterr().err
 
 
 def test_the_prediction_is_where_the_loop_stops_given_the_tracker_s_gain_and_errors():
     """A bias alone is the answer's length; a gain G moves the stop to −(I + G)⁻¹ e; noise averages over the frames."""
     from hvs_sim.bench.budget import Measured, predict
 
-    def m(bias, gain=((0.0, 0.0), (0.0, 0.0)), noise=(0.0, 0.0), near=(0.0, 0.0)):
-        return Measured((180.0, 180.0), bias, noise, gain, near, 90, 24)
+    def m(bias, gain=((0.0, 0.0), (0.0, 0.0)), noise=(0.0, 0.0), near=(0.0, 0.0), offset=(0.0, 0.0)):
+        return Measured((180.0, 180.0), bias, noise, gain, offset, near, 90, 24)
 
     assert predict(m((3.0, 4.0)), 19) == pytest.approx(5.0)
     # the tracker sees only half of the camera's motion along the first direction: the loop stops twice as far
@@ -92,6 +94,9 @@ def test_the_prediction_is_where_the_loop_stops_given_the_tracker_s_gain_and_err
     assert predict(m((0.0, 0.0), noise=(4.0, 4.0)), 16) == pytest.approx(np.sqrt(2 * np.log(2)), rel=0.02)
     assert predict(m((0.0, 0.0), noise=(4.0, 4.0)), 64) < predict(m((0.0, 0.0), noise=(4.0, 4.0)), 16)
     assert predict(m((1.0, 0.0), gain=((-1.0, 0.0), (0.0, 0.0))), 19) is None  # it does not see the offset at all
+    assert predict(m((1.0, 0.0), gain=((-1.5, 0.0), (0.0, 0.0))), 19) is None  # it sees it backwards: no stable stop
+    assert predict(m((1.0, 0.0), gain=((-0.999, 0.0), (0.0, 0.0))), 19) is None  # 1000× an error is no answer
+    assert predict(m((1.0, 0.0), offset=(2.0, 0.0)), 19) == pytest.approx(3.0)  # the near-goal fit's constant adds
 
 
 def test_budget_measures_the_tracker_and_runs_the_loop_on_a_clean_camera(tmp_path, capsys):
@@ -100,14 +105,18 @@ def test_budget_measures_the_tracker_and_runs_the_loop_on_a_clean_camera(tmp_pat
     from hvs_sim.bench import budget as b
 
     scen = b.budget_scenario("ideal", 0.8)
-    m = b.measure(scen, hold_frames=4, near_poses=6)
+    with pytest.raises(ConfigError, match="near_poses"):
+        b.measure(scen, hold_frames=4, near_poses=3)  # three unknowns a direction: nothing left to measure the rest
+    m = b.measure(scen, hold_frames=4, near_poses=8)
     assert max(map(abs, m.bias_mm)) < 0.1 and max(m.noise_mm) < 0.05  # the same frame each time
-    assert 0 < max(m.near_mm) < 5 and all(180 < v < 185 for v in m.mm_per_px)
+    assert 0 < max(m.near_mm) < 5 and all(180 < v < 185 for v in m.mm_per_px) and m.unaligned == 0
     out = tmp_path / "b"
     assert main(["budget", "--camera", "ideal", "--episodes", "1", "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert "What the loop reaches" in text and "| ideal | star_field | 0.15 |" in text
-    row = json.loads((out / "budget.json").read_text())["rows"][0]
+    data = json.loads((out / "budget.json").read_text())
+    assert data["arm"] == "jaco" and data["episodes"] == 1
+    row = data["rows"][0]
     assert len(row["closed_loop"]) == 1 and row["closed_loop"][0]["seed"] == b.EPISODE_SEED0
     assert 0 < row["closed_loop_median_mm"] < 10  # converged: the benchmark's bound
     assert 0 < row["predicted_median_mm"] < 10 and row["measured"]["hold_frames"] == b.HOLD_FRAMES

@@ -199,6 +199,14 @@ def test_bad_supersample_is_refused(bad):
         CameraConfig(supersample=bad)
 
 
+def test_a_supersampled_render_larger_than_the_largest_side_is_refused():
+    from hvs_sim.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="at most 4096"):
+        CameraConfig(width=2048, height=1536, supersample=3)
+    assert CameraConfig(width=2048, height=1536, supersample=2).supersample == 2
+
+
 def test_supersampling_with_the_motion_field_blur_is_refused():
     from hvs_sim.camera_model import sensor_preset
     from hvs_sim.errors import ConfigError

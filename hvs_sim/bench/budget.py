@@ -47,7 +47,10 @@ NEAR_POSES = 24  # clean views around the goal along L's two weakest directions 
 NEAR_LATERAL_M = 0.005  # ... each up to this much translation from it (the loop's last millimetres)
 WEAK = 2  # L's weakest directions measured
 PREDICTION_SAMPLES = 20000  # draws of the final pose error for its predicted median
-MAX_SEEN_CONDITION = 1e3  # beyond this the tracked corners barely follow some offset: no prediction
+# the tracked corners must follow the camera's offset at least this much (eigenvalues of I + G, real part) for the
+# loop to have a stable place to stop; below it no prediction
+MIN_SEEN_GAIN = 0.1
+MIN_NEAR_POSES = 8  # the near-goal fit has three unknowns per direction: enough views left over to measure the rest
 EPISODE_SEED0 = 200  # closed-loop episodes use the servo benchmark's `clear` start poses from this seed
 BUDGET_TRACKER, BUDGET_WARP = "hybrid", "homography"  # the loop's tracker on six DOF
 
@@ -177,9 +180,11 @@ class Measured:
     # clean views around the goal: the error as a linear function of the camera's offset along the directions
     # (near_gain: mm of error per mm of offset, rows the error's direction) and what that leaves (root mean square)
     near_gain: tuple[tuple[float, ...], ...]
+    near_offset_mm: tuple[float, ...]  # the fit's constant: the near-goal error at the goal itself
     near_mm: tuple[float, ...]
     hold_frames: int
     near_poses: int
+    unaligned: int = 0  # frames held at the goal and near-goal views where the tracker did not align (mode)
 
     def row(self) -> dict:
         return dataclasses.asdict(self)
@@ -197,11 +202,12 @@ def measure(scenario, hold_frames: int = HOLD_FRAMES, near_poses: int = NEAR_POS
     """The tracker held at the goal through the scenario's camera, and on clean views around the goal."""
     from hvs_sim.render.renderer import Renderer
     from hvs_sim.scene.world import Scene
+    from hvs_sim.tracking.base import Mode
     from hvs_sim.tracking.warp import perspective_transform
 
-    for name, value in (("hold_frames", hold_frames), ("near_poses", near_poses)):
-        if not isinstance(value, int) or value < 2:
-            raise ConfigError(f"{name} must be a whole number of at least 2, got {value!r}")
+    for name, value, least in (("hold_frames", hold_frames, 2), ("near_poses", near_poses, MIN_NEAR_POSES)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < least:
+            raise ConfigError(f"{name} must be a whole number of at least {least}, got {value!r}")
     scene = Scene(scenario)
     q0 = scene.reference_configuration()
     with scene.posed(q0):  # the goal image as the loop takes it; then time runs with the arm held there
@@ -213,11 +219,13 @@ def measure(scenario, hold_frames: int = HOLD_FRAMES, near_poses: int = NEAR_POS
         camera = Renderer(scene, people=False)
         tracker = _goal_tracker(goal, roi)
         tracker.seed(np.eye(3))
-        held = []
+        held, unaligned = [], 0
         for _ in range(hold_frames):
             scene.advance(None)
             frame, gt = camera.rgb(), camera.ground_truth(occlusion=False).corners
-            held.append((tracker.update(frame).corners - camera.transfer(c0, gt, roi0)).ravel() @ U)
+            track = tracker.update(frame)
+            unaligned += track.mode != Mode.ALIGN
+            held.append((track.corners - camera.transfer(c0, gt, roi0)).ravel() @ U)
     held = np.array(held) * mm
     # the same target through a camera without noise, blur or exposure changes, at the same size and field of view
     clean = Scene(dataclasses.replace(scenario, camera=dataclasses.replace(scenario.camera, sensor="ideal")))
@@ -239,26 +247,28 @@ def measure(scenario, hold_frames: int = HOLD_FRAMES, near_poses: int = NEAR_POS
         truth = r.transfer(c0, gt, roi0)
         tracker.seed(perspective_transform(roi0, truth))
         for _ in range(2):  # the second from the first's answer, as the loop tracks a still camera
-            corners = tracker.update(frame).corners
-        near.append((corners - truth).ravel() @ U)
+            track = tracker.update(frame)
+        unaligned += track.mode != Mode.ALIGN
+        near.append((track.corners - truth).ravel() @ U)
     near = np.array(near) * mm
     A = np.c_[np.array(offsets), np.ones(near_poses)]
     coef, *_ = np.linalg.lstsq(A, near, rcond=None)  # near ≈ offsets @ G.T + c
     gain, rest = coef[:WEAK].T, near - A @ coef
     return Measured(tuple(mm.tolist()), tuple(held.mean(axis=0).tolist()), tuple(held.std(axis=0).tolist()),
-                    tuple(tuple(g) for g in gain.tolist()), tuple(np.sqrt(np.mean(rest ** 2, axis=0)).tolist()),
-                    hold_frames, near_poses)
+                    tuple(tuple(g) for g in gain.tolist()), tuple(coef[WEAK].tolist()),
+                    tuple(np.sqrt(np.mean(rest ** 2, axis=0)).tolist()), hold_frames, near_poses, int(unaligned))
 
 
 def predict(m: Measured, frames: float) -> float | None:
     """The median final pose error to expect (mm). The loop stops where the tracked corners say the camera is at the
-    goal: offset a with a + G a + e = 0, G the near-goal gain and e the held bias plus the noise averaged over
-    `frames` plus what the gain leaves of the near-goal error, the last two drawn as Gaussians of their measured
-    spreads along each direction; the median length of a = −(I + G)⁻¹ e over the draws."""
+    goal: offset a with a + G a + e = 0, G the near-goal gain and e the held bias plus the near-goal fit's constant
+    plus the noise averaged over `frames` plus what the fit leaves of the near-goal error, the last two drawn as
+    Gaussians of their measured spreads along each direction; the median length of a = −(I + G)⁻¹ e over the draws.
+    None where I + G has an eigenvalue under MIN_SEEN_GAIN."""
     spread = np.sqrt(np.square(m.noise_mm) / frames + np.square(m.near_mm))
-    e = np.asarray(m.bias_mm) + np.random.default_rng(0).standard_normal((PREDICTION_SAMPLES, WEAK)) * spread
+    e = np.asarray(m.bias_mm) + np.asarray(m.near_offset_mm) + np.random.default_rng(0).standard_normal((PREDICTION_SAMPLES, WEAK)) * spread
     seen = np.eye(WEAK) + np.asarray(m.near_gain)  # how the tracked corners move with the camera, per mm
-    if np.linalg.cond(seen) > MAX_SEEN_CONDITION:  # the tracker does not see the offset: no place to stop
+    if np.linalg.eigvals(seen).real.min() < MIN_SEEN_GAIN:  # barely or wrongly seen: the loop has no stable stop
         return None
     a = np.linalg.solve(seen, e.T).T
     return float(np.median(np.linalg.norm(a, axis=1)))
@@ -313,6 +323,8 @@ def estimate_table(rows: list[Budget]) -> str:
         loop = (f"{b.closed_loop_median_mm:.2f} ({len(b.closed_loop)})" if b.closed_loop else "not run")
         predicted = (f"**{b.predicted_mm:.2f}**" if b.predicted_mm is not None
                      else "none: the tracker does not follow the camera near the goal")
+        if m.unaligned:
+            predicted += f" (the tracker did not align on {m.unaligned} of {m.hold_frames + m.near_poses} views)"
         lines.append(f"| {b.camera} | {b.target} | {b.target_width_m:g} | {_pair(m.bias_mm, '+.2f')} | "
                      f"{_pair(m.noise_mm)} | {_pair(m.near_mm)} | {predicted} | {loop} |")
     return "\n".join(lines) + "\n"

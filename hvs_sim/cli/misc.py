@@ -11,6 +11,7 @@ from hvs_sim.cli.common import HelpFormatter, _target_overrides
 from hvs_sim.cli.run import cmd_run
 from hvs_sim.cliargs import DEFAULT_TRACKER
 from hvs_sim.errors import ConfigError
+from hvs_sim.scene.arms import DEFAULT_ARM
 
 BUDGET_EPISODES = 3  # `hvs-sim budget`'s closed-loop episodes per camera: a handful, to set beside the prediction
 from hvs_sim.outputs import fresh_out_dir, prepare_out_dir, write_atomic
@@ -44,6 +45,9 @@ def cmd_budget(args) -> int:
     args.episodes = BUDGET_EPISODES if args.episodes is None else args.episodes
     if args.episodes < 0:
         raise ConfigError(f"--episodes must be 0 or more, got {args.episodes}")
+    out = Path(args.out)
+    if out.is_dir() and any(out.iterdir()) and not args.overwrite:  # said now, not after minutes of episodes
+        fresh_out_dir(out, False, ())
     scene = _target_overrides(args)
     if args.arm is not None:
         scene["arm"] = args.arm
@@ -65,6 +69,8 @@ def cmd_budget(args) -> int:
     curves = b.figure(rows[0].camera, out / "budget.png", **{k: v for k, v in scene.items() if k != "target_width"})
     write_atomic(out / "budget.md", text)
     write_atomic(out / "budget.json", json.dumps({"rows": [r.row() for r in rows], "figure_camera": rows[0].camera,
+                                                  "arm": args.arm or DEFAULT_ARM,
+                                                  "episodes": 0 if args.bound_only else args.episodes,
                                                   "figure_mm_by_width": curves, "note": b.__doc__.strip()}, indent=2))
     print(text, end="")
     print("The bound: no unbiased estimator reading these pixels does better. The prediction adds the tracker's bias "

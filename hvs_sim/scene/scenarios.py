@@ -38,6 +38,7 @@ DEFAULT_MULTISAMPLE = 0
 # at 2 a frame costs 1.9–3.6× as much (robot_cell to ideal; docs/results.md, the pose bound)
 SUPERSAMPLE_CHOICES = (1, 2, 3)
 DEFAULT_SUPERSAMPLE = 1
+MAX_RENDER_SIDE = 4096  # px: the largest off-screen render a camera asks for (its size times supersample)
 
 
 @dataclass(frozen=True)
@@ -67,6 +68,10 @@ class CameraConfig:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 64 <= v <= 4096:
                 raise ConfigError(f"camera {name} must be an int in [64, 4096] pixels, got {v!r}")
+        if max(self.width, self.height) * ss > MAX_RENDER_SIDE:
+            raise ConfigError(f"a {self.width}×{self.height} camera supersampled {ss}× renders "
+                              f"{self.width * ss}×{self.height * ss}: at most {MAX_RENDER_SIDE} pixels a side; lower "
+                              f"supersample or the image size")
         if not isinstance(self.fovy, (int, float)) or not 10.0 <= float(self.fovy) <= 120.0:
             raise ConfigError(f"camera fovy must be a number of degrees in [10, 120], got {self.fovy!r}")
         object.__setattr__(self, "sensor", sensor_preset(self.sensor))
