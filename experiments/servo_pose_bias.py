@@ -32,17 +32,16 @@ import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from hvs_sim.control.ibvs import interaction_matrix
+from hvs_sim.bench.budget import WEAK, template_roi, weak_directions, weak_offset
 from hvs_sim.errors import InputError
 from hvs_sim.geometry import offset_pose
-from hvs_sim.loop import GOAL_ROI_INSET_PX
 from hvs_sim.loopparts import GOAL_FRAMES
 from hvs_sim.outputs import write_atomic
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import SUPERSAMPLE_CHOICES, CameraConfig, make_scenario
 from hvs_sim.scene.world import Scene
 from hvs_sim.tracking import aligner, make_tracker
-from hvs_sim.tracking.frames import inset_roi, roi_corners, roi_from_corners
+from hvs_sim.tracking.frames import roi_corners
 from hvs_sim.tracking.warp import perspective_transform
 
 # name: (tracker, its settings, the intensity refinement's Gaussian size)
@@ -54,7 +53,6 @@ VARIANTS: dict[str, tuple[str, dict, int | None]] = {
     "hybrid_no_refine": ("hybrid", {"refine_intensity": False}, None),
     "ecc": ("ecc", {}, None),
 }
-WEAK = 2
 
 
 @contextmanager
@@ -91,12 +89,10 @@ def main() -> None:
     q0 = scene.reference_configuration()
     with scene.posed(q0):
         goal, c0 = renderer.still_average(GOAL_FRAMES), renderer.ground_truth(occlusion=False).corners
-    roi = inset_roi(roi_from_corners(c0), GOAL_ROI_INSET_PX)
+    roi = template_roi(c0, scene.scenario.standoff)
     roi0 = roi_corners(roi)
-    K = renderer.K
-    xy = (roi0 - K[:2, 2]) / np.diag(K)[:2]
-    U, S, Vt = np.linalg.svd(interaction_matrix(xy, np.full(4, scene.scenario.standoff)))
-    mm_per_px = [1e3 * np.linalg.norm(Vt[5 - k][:3]) / (K[0, 0] * S[5 - k]) for k in range(WEAK)]
+    U, Vt, mm_per_px = weak_directions(renderer.K, roi0, scene.scenario.standoff)
+    mm_per_px = mm_per_px.tolist()
     trackers = {}
     for name in args.variants:
         kind, settings, gauss = VARIANTS[name]
@@ -109,9 +105,7 @@ def main() -> None:
     poses = []
     for i in range(args.poses):
         if args.around == "weak":  # a twist along L's two weakest directions, each scaled to `lat` of translation
-            a = rng.uniform(-lat, lat, WEAK)
-            twist = sum(a[k] * Vt[5 - k] / np.linalg.norm(Vt[5 - k][:3]) for k in range(WEAK))
-            off = np.r_[twist[:3], twist[5], twist[3], twist[4]]  # small angles: roll about z, pitch x, yaw y
+            off = weak_offset(rng.uniform(-lat, lat, WEAK), Vt)
         else:
             off = rng.uniform(-1, 1, 6) * np.array([lat, lat, 2 * lat, tilt, tilt, tilt])
         q = scene.solve_ik(*offset_pose(*scene.reference_pose(), off), q0=q0)
@@ -124,7 +118,7 @@ def main() -> None:
             for _ in range(2):  # the second from the first's answer, as the loop tracks a still camera
                 corners = tracker.update(frame).corners
             e = corners - truth
-            errors[name].append([float(e.ravel() @ U[:, 5 - k]) for k in range(WEAK)] +
+            errors[name].append([float(e.ravel() @ U[:, k]) for k in range(WEAK)] +
                                 [float(np.linalg.norm(e, axis=1).max())])
         print(f"pose {i + 1}/{args.poses}", end="\r", flush=True)
     rows = {}
@@ -137,9 +131,10 @@ def main() -> None:
         print(f"{name:24s} weakest {rms[0]:.4f} px ({mm[0]:.2f} mm), 2nd {rms[1]:.4f} px ({mm[1]:.2f} mm), together "
               f"{rows[name]['weak_mm']:.2f} mm | worst corner median {rows[name]['median_worst_corner_px']:.3f} px, "
               f"max {rows[name]['worst_corner_px']:.3f} px")
-    write_atomic(out, json.dumps({"poses": args.poses, "seed": args.seed, "around": args.around, "supersample": args.supersample, "lateral_mm": args.lateral, "tilt_deg": args.tilt,
-                               "mm_per_px": mm_per_px, "wall_s": time.perf_counter() - t0, "variants": rows,
-                               "pose_errors": poses}, indent=1))
+    write_atomic(out, json.dumps({"poses": args.poses, "seed": args.seed, "around": args.around,
+                                  "supersample": args.supersample, "lateral_mm": args.lateral, "tilt_deg": args.tilt,
+                                  "mm_per_px": mm_per_px, "wall_s": time.perf_counter() - t0, "variants": rows,
+                                  "pose_errors": poses}, indent=1))
     print(f"wrote {out}")
 
 

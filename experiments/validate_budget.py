@@ -31,7 +31,7 @@ HELD_OUT_SEED0 = 210  # the held-out episodes' first seed (the budget's own are 
 TOLERANCE = 0.3
 
 
-def ratio_free(mm: float | None) -> str:
+def fmt_mm(mm: float | None) -> str:
     return "none" if mm is None else f"{mm:.2f}"
 
 
@@ -68,7 +68,7 @@ def main() -> None:
         for f in as_completed(futures):
             r = f.result()
             rows.append(r)
-            print(f"{r['camera']:15s} {r['target_width_m']:.2f} m: model {ratio_free(r['budget']['predicted_median_mm'])} mm, "
+            print(f"{r['camera']:15s} {r['target_width_m']:.2f} m: model {fmt_mm(r['budget']['predicted_median_mm'])} mm, "
                   f"3 episodes {r['budget']['closed_loop_median_mm']:.2f} mm, held-out {r['held_out_median_mm']:.2f} mm "
                   f"({len(jobs) - len(rows)} to go)", flush=True)
     rows.sort(key=lambda r: (CAMERAS.index(r["camera"]), r["target_width_m"]))
@@ -82,7 +82,7 @@ def main() -> None:
             return "none ✗" if x is None else f"{x:.2f}" + ("" if abs(x - 1) <= TOLERANCE else " ✗")
 
         lines.append(f"| {r['camera']} | {r['target_width_m']:g} | {bud['filtered_mm']:.2f} | "
-                     f"{ratio_free(bud['predicted_median_mm'])} | {bud['closed_loop_median_mm']:.2f} | "
+                     f"{fmt_mm(bud['predicted_median_mm'])} | {bud['closed_loop_median_mm']:.2f} | "
                      f"{r['held_out_median_mm']:.2f} | {ratio(r['model_ratio'])} | {ratio(r['handful_ratio'])} |")
     text = "\n".join(lines) + "\n"
     write_atomic(out / "validation.md", text)

@@ -100,6 +100,13 @@ def weak_directions(K: np.ndarray, corners_px: np.ndarray, depth: float) -> tupl
     return U[:, idx], Vt[idx], mm
 
 
+def weak_offset(a: np.ndarray, Vt: np.ndarray) -> np.ndarray:
+    """The camera offset (dx, dy, dz, roll, pitch, yaw; `geometry.offset_pose`'s order) a along the weak directions
+    `Vt` (weak_directions), each scaled so that a_k is metres of translation; small angles."""
+    twist = sum(a[k] * Vt[k] / np.linalg.norm(Vt[k][:3]) for k in range(len(a)))
+    return np.r_[twist[:3], twist[5], twist[3], twist[4]]  # the twist's (wx, wy, wz) are pitch, yaw, roll
+
+
 def view_bound(clean: np.ndarray, grey_var: np.ndarray, K: np.ndarray, roi, depth: float) -> PoseBound:
     """The 6-DOF bound from the template region of a clean view and its per-pixel grey noise variance."""
     grey = clean.astype(np.float64) @ GREY
@@ -239,9 +246,7 @@ def measure(scenario, hold_frames: int = HOLD_FRAMES, near_poses: int = NEAR_POS
     for _ in range(near_poses):  # a twist along the weak directions, each scaled to NEAR_LATERAL_M of translation
         a = rng.uniform(-NEAR_LATERAL_M, NEAR_LATERAL_M, WEAK)
         offsets.append(1e3 * a)
-        twist = sum(a[k] * Vt[k] / np.linalg.norm(Vt[k][:3]) for k in range(WEAK))
-        # small angles: offset_pose takes (roll about z, pitch about x, yaw about y)
-        q = clean.solve_ik(*offset_pose(*ref, np.r_[twist[:3], twist[5], twist[3], twist[4]]), q0=q0)
+        q = clean.solve_ik(*offset_pose(*ref, weak_offset(a, Vt)), q0=q0)
         with clean.posed(q):
             frame, gt = r.rgb(), r.ground_truth(occlusion=False).corners
         truth = r.transfer(c0, gt, roi0)

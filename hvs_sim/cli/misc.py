@@ -11,10 +11,10 @@ from hvs_sim.cli.common import HelpFormatter, _target_overrides
 from hvs_sim.cli.run import cmd_run
 from hvs_sim.cliargs import DEFAULT_TRACKER
 from hvs_sim.errors import ConfigError
+from hvs_sim.outputs import fresh_out_dir, prepare_out_dir, write_atomic
 from hvs_sim.scene.arms import DEFAULT_ARM
 
 BUDGET_EPISODES = 3  # `hvs-sim budget`'s closed-loop episodes per camera: a handful, to set beside the prediction
-from hvs_sim.outputs import fresh_out_dir, prepare_out_dir, write_atomic
 
 
 def cmd_train(args) -> int:
