@@ -167,7 +167,7 @@ def test_second_ncc_peak_tells_a_unique_match_from_a_self_similar_one():
 
 def test_a_far_reacquisition_needs_a_unique_match_on_consecutive_frames():
     img = _frame()
-    tr = make_tracker("hybrid", verify_reacquisition=True)
+    tr = make_tracker("hybrid", verify_reacquisition=True, surroundings_veto_frames=0)
     tr.init(img, ROI)
     c = tr.hconfig
     far = pose_to_matrix((60.0, 0.0, 0.0, 1.0), tr.center0)
@@ -180,6 +180,26 @@ def test_a_far_reacquisition_needs_a_unique_match_on_consecutive_frames():
     unverified = make_tracker("hybrid", verify_reacquisition=False)
     unverified.init(img, ROI)
     assert unverified._verified(far, Match(np.zeros(2), 0.8, 0.78))
+
+
+def test_a_far_jump_the_surroundings_contradict_is_held_back():
+    # a unique match far from a static target's estimate, while every frame since the alignment was measured on the
+    # surroundings (as right after init): a look-alike, refused until seen on surroundings_veto_frames frames
+    img = _frame()
+    tr = make_tracker("hybrid", surroundings_veto_frames=5)
+    tr.init(img, ROI)
+    far = pose_to_matrix((60.0, 0.0, 0.0, 1.0), tr.center0)
+    unique = Match(np.zeros(2), 0.9, 0.3)
+    assert [tr._verified(far, unique) for _ in range(5)] == [False] * 4 + [True]
+    # a seeded estimate (or a predictor's guess) is not a measurement: the usual confirmation over reacquire_frames
+    seeded = make_tracker("hybrid", surroundings_veto_frames=5)
+    seeded.init(img, ROI)
+    seeded.seed(np.eye(3))
+    n = seeded.hconfig.reacquire_frames
+    assert [seeded._verified(far, unique) for _ in range(n)] == [False] * (n - 1) + [True]
+    for bad in (-1, 2.5, True):
+        with pytest.raises(ConfigError, match="surroundings_veto_frames"):
+            make_tracker("hybrid", surroundings_veto_frames=bad)
 
 
 @pytest.mark.parametrize("settings", [{}, {"warp": "homography"}, {"residual": True},

@@ -57,6 +57,11 @@ def _builder(name: str, config: dict):
 
         base_lk = hybrid_deep_config(residual=bool(config.get("residual", False)),
                                      warp=config.get("warp", "similarity")).lk
+        if isinstance(config.get("background_config"), dict):  # the surroundings' settings as a dict
+            from hvs_sim.tracking.background import BackgroundConfig
+
+            config = {**config, "background_config": BackgroundConfig(
+                **_settings(f"{name} background_config", BackgroundConfig, config["background_config"]))}
         cfg = HybridConfig.for_warp(name, **_lk_from_dict(name, config, base_lk))  # checks the settings
         return lambda: HybridTracker(cfg)
     from hvs_sim.tracking.baselines import EccTracker, SiftTracker

@@ -7,8 +7,18 @@ corners found in a recent frame are followed into the current one with pyramidal
 similarities are chained from the keyframe (the last frame the target was aligned in).
 Chained over short hops rather than matched to the keyframe, because a person crossing close to
 the camera sweeps over the view: nothing of the keyframe may stay visible, but frames a few steps
-apart always share something. A similarity rather than a homography because the visible part can
-be a narrow strip, from which a homography extrapolates badly to the hidden target.
+apart always share something. The consensus is found as a similarity, because the visible part can
+be a narrow strip, from which a homography extrapolates badly to the hidden target; where its
+inliers spread over the view, the hop is refitted on them as a homography (`homography`): a picture
+on a wall moves as a plane, and a similarity chained through a hand-held camera's tilt drifted
+2–4 px in 3 s where the homography of the same wall points stayed within 0.5 px (docs/tuning.md).
+
+The occluder is what stands in front of the target (`occluder_prior`): of two competing
+consensuses, one with corners on the hidden target's box, where the other has almost none, is the
+occluder's (a partly hidden target's own visible corners move with the wall, so then neither is
+ruled out). Without it a checked shirt standing over the target gave every one of the strongest
+corners, and the chain followed the person's sway. Corners are also guaranteed in every part of the
+view (`cell_corners`), so that a weakly textured wall still has some beside a strongly textured coat.
 
 What it cannot do: when the occluder fills the whole view there is nothing to measure, and the
 hybrid tracker falls back on its motion predictor; the chain then starts again from the
@@ -26,7 +36,7 @@ import numpy as np
 from hvs_sim.errors import ConfigError
 from hvs_sim.tracking.occlusion import median_1d
 from hvs_sim.tracking.warp import apply, is_affine, warp_image
-from hvs_sim.validate import check_number
+from hvs_sim.validate import check_flags, check_number
 
 
 @dataclass(frozen=True)
@@ -54,6 +64,11 @@ class BackgroundConfig:
     anchor_points: int = 150  # corners per keyframe
     max_fb_px: float = 0.5  # forward–backward LK disagreement above which a point is dropped (chain and anchor)
     competing: bool = True  # a second consensus competes with the first; the one moving as the scene did wins
+    homography: bool = True  # a hop whose inliers spread over the view is refitted on them as a homography
+    occluder_prior: bool = True  # a consensus on the hidden target is the occluder's (module docstring)
+    # at least this many corners in each of CELL_GRID × CELL_GRID parts of the view (at that part's own contrast);
+    # 0: the strongest `max_points` of the whole view only, as before
+    cell_corners: int = 6
 
     def __post_init__(self):
         for name in ("hop", "keyframes", "spacing"):
@@ -63,6 +78,8 @@ class BackgroundConfig:
         if not (self.ransac_px > 0 and self.max_fb_px > 0 and self.anchor_points >= 8):
             raise ConfigError(f"need ransac_px > 0, max_fb_px > 0 and anchor_points >= 8, got "
                               f"{self.ransac_px}, {self.max_fb_px}, {self.anchor_points}")
+        check_number("background cell_corners", self.cell_corners, 0, integer=True)
+        check_flags(self, ("competing", "homography", "occluder_prior"))
         if self.max_points < 8 or self.min_inliers < 4:
             raise ConfigError(f"background motion needs max_points >= 8 and min_inliers >= 4, "
                               f"got {self.max_points}, {self.min_inliers}")
@@ -75,6 +92,21 @@ COMPETING_SHARE = 0.2  # a second consensus this large (of the first's inliers) 
 LK_MAX_ITERATIONS, LK_EPS = 30, 0.01  # pyramidal LK stopping rule per level (OpenCV's defaults)
 RANSAC_MAX_ITERS, RANSAC_REFINE_ITERS = 500, 10  # enough for 30 % inliers among 200 corners
 CORNER_BLOCK_SIZE = 7  # goodFeaturesToTrack's structure-tensor window (work px)
+CELL_GRID = 4  # BackgroundConfig.cell_corners: the view cut into 4 × 4 parts
+HIDDEN_DILATE = 1.25  # the hidden target's box, grown about its centre: corners there are the occluder's
+# of two consensuses, one with over OCCLUDER_SHARE of its points on the hidden target is the occluder's where the
+# other has almost none there (a partly hidden target's own visible corners move with the wall), OCCLUDER_MIN_OTHER
+# points in all ...
+OCCLUDER_SHARE = 0.05
+OCCLUDER_CLEAR = 0.02
+OCCLUDER_MIN_OTHER = 12
+OCCLUDER_SPREAD = 0.5  # ... spread over half the corners' extent both ways (a strip of wall is not the wall) ...
+OCCLUDER_MISS_PX = 2.0  # ... and moving no more than this further from the scene's expected motion than the first
+# a hop refitted as a homography (BackgroundConfig.homography): on at least this many inliers, spread over at least
+# this share of the view's width and height, and moving the view's centre within HOMOGRAPHY_AGREE_PX of the similarity
+HOMOGRAPHY_MIN_INLIERS = 20
+HOMOGRAPHY_SPREAD = 0.6
+HOMOGRAPHY_AGREE_PX = 1.0
 
 
 def _lk_params(c: BackgroundConfig) -> dict:
@@ -108,29 +140,100 @@ def _ransac(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig) -> tuple[np.n
     return np.vstack([S, [0.0, 0.0, 1.0]]), mask[:, 0].astype(bool)
 
 
-def _trusted_similarity(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig,
-                        expected: np.ndarray | None = None) -> np.ndarray | None:
-    """RANSAC similarity src → dst (3×3), or None when too few points agree on it.
+def _consensus(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig, expected: np.ndarray | None = None,
+               hidden: np.ndarray | None = None) -> tuple[np.ndarray | None, np.ndarray]:
+    """RANSAC similarity src → dst (3×3) and its inliers, or None when too few points agree on it.
 
-    With `expected` (the displacement the scene's motion so far predicts at each point), a second
-    consensus among the first one's outliers competes with it: a textured coat that fills half the
-    view gives as many agreeing corners as the wall, and moves with the person's sway. The
-    consensus whose motion is nearer the expected one wins."""
+    A second consensus among the first one's outliers competes with it: a textured coat that fills
+    half the view gives as many agreeing corners as the wall. With `hidden` (the hidden target's
+    box in src, 4×2), the consensus gathered around it is the occluder's; otherwise, with `expected`
+    (the displacement the scene's motion so far predicts at each point), the consensus whose motion
+    is nearer the expected one wins."""
+    none = None, np.zeros(len(src), bool)
     if len(src) < c.min_inliers:
-        return None
+        return none
     S, inl = _ransac(src, dst, c)
     if S is None or int(inl.sum()) < max(c.min_inliers, c.min_inlier_ratio * len(src)):
-        return None
-    if expected is None or (~inl).sum() < c.min_inliers:
-        return S
-    S2, inl2 = _ransac(src[~inl], dst[~inl], c)
-    if S2 is None or inl2.sum() < max(c.min_inliers, COMPETING_SHARE * inl.sum()):
-        return S
+        return none
+    if (expected is None and hidden is None) or (~inl).sum() < c.min_inliers:
+        return S, inl
+    rest = np.flatnonzero(~inl)
+    S2, inl2 = _ransac(src[rest], dst[rest], c)
+    if S2 is None or inl2.sum() < c.min_inliers:
+        return S, inl
+    second = np.zeros(len(src), bool)
+    second[rest[inl2]] = True
 
     def miss(M):  # how far the model's motion is from the expected one, over all points
         return median_1d(np.linalg.norm(apply(M, src) - src - expected, axis=1))
 
-    return S2 if miss(S2) < miss(S) else S
+    if hidden is not None:  # beside a hidden target any second consensus competes: the wall beside a coat can
+        f1, f2 = (float(np.mean(_near(src[m], hidden))) for m in (inl, second))  # give far fewer corners
+        if f1 > OCCLUDER_SHARE and f2 <= OCCLUDER_CLEAR and second.sum() >= OCCLUDER_MIN_OTHER and \
+                np.all(np.ptp(src[second], axis=0) >= OCCLUDER_SPREAD * np.ptp(src, axis=0)) and (
+                expected is None or miss(S2) <= miss(S) + OCCLUDER_MISS_PX):  # not a repeated texture's false match
+            return S2, second
+        if f2 > OCCLUDER_SHARE and f1 <= OCCLUDER_CLEAR:
+            return S, inl
+    if expected is None or second.sum() < COMPETING_SHARE * inl.sum():
+        return S, inl
+    return (S2, second) if miss(S2) < miss(S) else (S, inl)
+
+
+def _near(pts: np.ndarray, hidden: np.ndarray) -> np.ndarray:
+    """Which points lie on the hidden target: in the bounding box of its box grown by HIDDEN_DILATE."""
+    centre = hidden.mean(0)
+    grown = centre + HIDDEN_DILATE * (hidden - centre)
+    return np.all((pts >= grown.min(0)) & (pts <= grown.max(0)), axis=1)
+
+
+def _trusted_similarity(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig,
+                        expected: np.ndarray | None = None) -> np.ndarray | None:
+    """RANSAC similarity src → dst (3×3), or None when too few points agree on it (_consensus)."""
+    return _consensus(src, dst, c, expected)[0]
+
+
+def _plane_refit(S: np.ndarray, src: np.ndarray, dst: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """The hop's similarity consensus (`src` → `dst`, its inliers) refitted as a homography where the points can
+    carry one (HOMOGRAPHY_*), else S."""
+    h, w = shape
+    if len(src) < HOMOGRAPHY_MIN_INLIERS or np.ptp(src[:, 0]) < HOMOGRAPHY_SPREAD * w or \
+            np.ptp(src[:, 1]) < HOMOGRAPHY_SPREAD * h:
+        return S
+    H, _ = cv2.findHomography(src, dst, 0)
+    if H is None or not np.all(np.isfinite(H)) or abs(H[2, 2]) < 1e-12:
+        return S
+    H = H / H[2, 2]
+    centre = np.array([[(w - 1) / 2.0, (h - 1) / 2.0]])
+    return H if np.linalg.norm(apply(H, centre) - apply(S, centre)) <= HOMOGRAPHY_AGREE_PX else S
+
+
+def _corners(img: np.ndarray, c: BackgroundConfig, limit: int) -> np.ndarray | None:
+    """Corners (N×2 float32) to follow: the `limit` strongest, and at least `cell_corners` in each part of the view
+    that has any (at that part's own contrast)."""
+    h, w = img.shape[:2]
+    pts = cv2.goodFeaturesToTrack(img, limit, c.quality, c.min_distance, blockSize=CORNER_BLOCK_SIZE)
+    pts = np.empty((0, 2), np.float32) if pts is None else pts[:, 0].astype(np.float32)
+    if c.cell_corners:
+        extra = []
+        for i in range(CELL_GRID):
+            for j in range(CELL_GRID):
+                y0, y1, x0, x1 = i * h // CELL_GRID, (i + 1) * h // CELL_GRID, j * w // CELL_GRID, (j + 1) * w // CELL_GRID
+                inside = (pts[:, 0] >= x0) & (pts[:, 0] < x1) & (pts[:, 1] >= y0) & (pts[:, 1] < y1)
+                if inside.sum() >= c.cell_corners:
+                    continue
+                cell = cv2.goodFeaturesToTrack(np.ascontiguousarray(img[y0:y1, x0:x1]), c.cell_corners, c.quality,
+                                               c.min_distance, blockSize=CORNER_BLOCK_SIZE)
+                if cell is None:
+                    continue
+                cell = cell[:, 0].astype(np.float32) + np.float32([x0, y0])
+                if inside.any():  # not those already found
+                    near = np.linalg.norm(cell[:, None] - pts[inside][None], axis=2).min(1) < c.min_distance
+                    cell = cell[~near]
+                extra.append(cell)
+        if extra:
+            pts = np.concatenate([pts, *extra])
+    return pts if len(pts) else None
 
 
 def _ransac_homography(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig) -> np.ndarray | None:
@@ -190,22 +293,29 @@ class BackgroundMotion:
         self.reset()
         self.chain.append((0, key, np.eye(3)))
 
-    def step(self, src: np.ndarray, grey: np.ndarray, frames: int = 1) -> np.ndarray | None:
-        """Similarity from `src` to `grey` (`frames` apart), or None when the scene gives no trustworthy one."""
+    def step(self, src: np.ndarray, grey: np.ndarray, frames: int = 1, hidden: np.ndarray | None = None
+             ) -> tuple[np.ndarray, np.ndarray] | None:
+        """The scene's motion from `src` to `grey` (`frames` apart) and its similarity, or None when the scene gives
+        no trustworthy one. `hidden`: the hidden target's box in `src` (4×2), or None."""
         c = self.config
-        pts = cv2.goodFeaturesToTrack(src, c.max_points, c.quality, c.min_distance, blockSize=CORNER_BLOCK_SIZE)
+        hidden = hidden if c.occluder_prior else None
+        pts = _corners(src, c, c.max_points)
         if pts is None or len(pts) < c.min_inliers:
             return None
-        pts = pts[:, 0].astype(np.float32)
         nxt, ok = _lk_checked(src, grey, pts, c)
         expected = None
         if c.competing and self.velocity is not None:
             V = np.linalg.matrix_power(self.velocity, frames)
             expected = apply(V, pts[ok]) - pts[ok]
-        return _trusted_similarity(pts[ok], nxt[ok], c, expected)
+        p, q = pts[ok], nxt[ok]
+        S, inl = _consensus(p, q, c, expected, hidden if c.competing else None)
+        if S is None:
+            return None
+        return (_plane_refit(S, p[inl], q[inl], src.shape[:2]) if c.homography else S), S
 
-    def update(self, grey: np.ndarray) -> np.ndarray | None:
-        """Similarity keyframe → `grey`, or None this frame (the chain then waits at the last good frame).
+    def update(self, grey: np.ndarray, hidden: np.ndarray | None = None) -> np.ndarray | None:
+        """Keyframe → `grey` (a similarity, or a homography where hops were refitted), or None this frame (the chain
+        then waits at the last good frame). `hidden`: the hidden target's box (4×2, work px), or None.
 
         Measured from the frame `hop` steps back in the chain when it is there, else from the
         last one: a person standing almost still moves a fraction of a pixel per frame, within
@@ -214,11 +324,11 @@ class BackgroundMotion:
         sources = list(self.chain)[:1] if len(self.chain) == self.config.hop else []
         sources += list(self.chain)[-1:]
         for k, src, M_src in sources:
-            S = self.step(src, grey, self.frame - k)
-            if S is not None:
-                M = S @ M_src
+            measured = self.step(src, grey, self.frame - k, hidden)
+            if measured is not None:
+                M = measured[0] @ M_src
                 self.chain.append((self.frame, grey, M))
-                self.velocity = _per_frame(S, self.frame - k)
+                self.velocity = _per_frame(measured[1], self.frame - k)
                 return M
         return None
 

@@ -155,6 +155,12 @@ class HybridConfig:
     reacquire_drift_px: float = 0.5
     reacquire_margin: float = 0.1
     reacquire_frames: int = 3
+    # a static target's far jump that the surroundings contradict: while every frame since the last alignment was
+    # measured on the surroundings (no predictor guess, no seed), they say where the target is, and a unique match
+    # far from there is a look-alike (clothing printed with the scene's own texture, paused over the target), refused
+    # until it has been seen on this many consecutive frames (3 s at 30 Hz: a chain that went wrong is not held
+    # forever). 0: off, as before (README, harder occluders)
+    surroundings_veto_frames: int = 90
     # what the target does: "static" (fixed in the scene, the servo case: the surroundings' motion is its motion, and
     # a far jump must be verified), "moving" (it moves on its own, as footage often shows: a confident match is never
     # vetoed by the surroundings, and the predictor extrapolates the target's own motion), or "auto": "moving" for
@@ -205,6 +211,9 @@ class HybridConfig:
                               f"{self.reacquire_px}, {self.reacquire_drift_px}, {self.reacquire_margin}")
         if not isinstance(self.reacquire_frames, int) or self.reacquire_frames < 1:
             raise ConfigError(f"reacquire_frames must be an int >= 1, got {self.reacquire_frames!r}")
+        v = self.surroundings_veto_frames
+        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+            raise ConfigError(f"surroundings_veto_frames must be an int >= 0 (0: off), got {v!r}")
         if self.target_motion not in TARGET_MOTIONS:
             raise ConfigError(f"target_motion must be one of {', '.join(TARGET_MOTIONS)}, got {self.target_motion!r}")
         for name in ("auto_frames", "max_unaligned_frames"):
@@ -252,7 +261,7 @@ class HybridTracker(Tracker):
         if self.hconfig.colour_occlusion and frame.ndim == 3:
             self.colour_reference = OcclusionReference(al.template_patch(al.work_colour(frame)), self.config.tau_pix,
                                                        self.config.normalise_exposure)
-        self.state = HybridState(center0=self.center0, A=np.eye(3), keyframe=(work, np.eye(3)), thumb=_thumb(work))
+        self.state = HybridState(center0=self.center0, corners0=self.corners0, A=np.eye(3), keyframe=(work, np.eye(3)), thumb=_thumb(work))
         c = self.hconfig
         self.target_motion = None if c.target_motion == "auto" else c.target_motion
         self._evidence, self._evidence_frames, self._aligned_frames = np.zeros(2), 0, 0
@@ -265,6 +274,7 @@ class HybridTracker(Tracker):
         """The estimate moves to A; the motion sources start again from it (the keyframe stays the template's
         image, where the identity holds)."""
         self.state.A = A.copy()
+        self.state.scene_held = False  # a pose given from outside, not measured on these frames
         for s in self.sources:
             s.reset(self.state)
 
@@ -299,14 +309,17 @@ class HybridTracker(Tracker):
         if not unique:
             st.jump_seen(None, 0.0)
             return False
-        return st.jump_seen(offset, c.background_gate_px) >= c.reacquire_frames
+        seen = st.jump_seen(offset, c.background_gate_px)
+        if c.surroundings_veto_frames and st.scene_held and seen < c.surroundings_veto_frames:
+            return False  # the surroundings, measured on every frame since the alignment, put the target elsewhere
+        return seen >= c.reacquire_frames
 
     def _judge_motion(self, work: np.ndarray, A: np.ndarray) -> None:
         """`auto`: add this aligned frame's evidence (where the aligned target is, against where the surroundings'
         motion since the last alignment puts it), and decide once there is enough (HybridConfig.target_motion)."""
         c, st = self.hconfig, self.state
         self._aligned_frames += 1
-        A_scene = self.scene_motion.measure(work) if self.scene_motion is not None else None
+        A_scene = self.scene_motion.measure(work, st) if self.scene_motion is not None else None
         if A_scene is not None:
             self._evidence += matrix_to_pose(A, st.center0)[:2] - matrix_to_pose(A_scene, st.center0)[:2]
             self._evidence_frames += 1

@@ -60,6 +60,14 @@ TRACKERS: dict[str, TrackerSpec] = {
     "hybrid_unverified_reacquisition": TrackerSpec("hybrid", {"verify_reacquisition": False},
                                                    "a far global-match jump is accepted without verification",
                                                    "#f7b6d2"),
+    "hybrid_similarity_chain": TrackerSpec("hybrid", {"background_config": {"homography": False,
+                                                                             "occluder_prior": False,
+                                                                             "cell_corners": 0}},
+                                           "the surroundings' motion as a similarity chain of the strongest corners, "
+                                           "with no occluder prior (before the homography refit)", "#5254a3"),
+    "hybrid_no_surroundings_veto": TrackerSpec("hybrid", {"surroundings_veto_frames": 0},
+                                               "a far re-acquisition the surroundings contradict is not held back",
+                                               "#b5cf6b"),
     "hybrid_homography": TrackerSpec("hybrid", {"warp": "homography"},
                                      "the hybrid estimating a homography (true perspective corners, what six-DOF "
                                      "servoing uses) instead of the paper's similarity", "#17a768"),

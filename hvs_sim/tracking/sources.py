@@ -23,7 +23,7 @@ import numpy as np
 from hvs_sim.tracking.background import BackgroundConfig, BackgroundMotion, KeyframeAnchor
 from hvs_sim.tracking.base import Mode
 from hvs_sim.tracking.predictors import MotionPredictor
-from hvs_sim.tracking.warp import matrix_to_pose, translate
+from hvs_sim.tracking.warp import apply, matrix_to_pose, translate
 
 if TYPE_CHECKING:  # pragma: no cover
     from hvs_sim.tracking.aligner import Aligner
@@ -122,20 +122,22 @@ class SceneMotionSource:
         self.last_aligned: tuple[int, np.ndarray] | None = None
         self.key = state.keyframe  # (work image, full-res warp) where the chain starts
 
-    def measure(self, work) -> np.ndarray | None:
+    def measure(self, work, state: HybridState) -> np.ndarray | None:
         """Where the surroundings' motion since the chain's start puts the target (full-res warp), ungated; None when
-        the surroundings cannot be measured."""
+        the surroundings cannot be measured. The target's box at the current estimate is where the surroundings are
+        not (background.BackgroundConfig.occluder_prior)."""
         key_work, A_key = self.key
         if not self.motion.active:
             self.motion.start(key_work)
-        M = self.motion.update(work)
+        hidden = apply(self.aligner.S @ state.A, state.corners0)
+        M = self.motion.update(work, hidden)
         if M is None:
             return None
         al = self.aligner
         return al.S_inv @ M @ al.S @ A_key  # (keyframe → this frame, full-res) ∘ keyframe warp
 
     def propose(self, work, state):
-        A = self.measure(work)
+        A = self.measure(work, state)
         if A is None:
             return None
         moved = np.linalg.norm(_translation(A, state.center0) - _translation(state.A, state.center0))
@@ -199,6 +201,7 @@ class HybridState:
     tells every motion source what happened."""
 
     center0: np.ndarray  # template centre at init (full-res px)
+    corners0: np.ndarray  # the template's corners at init (4×2, full-res px)
     A: np.ndarray  # the current estimate (full-res frame-from-template)
     keyframe: tuple[np.ndarray, np.ndarray]  # (work image, full-res warp) of the last aligned or re-anchored frame
     frame_index: int = 0
@@ -211,6 +214,9 @@ class HybridState:
     jump_frames: int = 0
     thumb: np.ndarray | None = None  # the last frame's thumbnail (HybridTracker's cut test)
     after_cut: bool = False  # a scene cut was seen and the target not aligned since: lost
+    # every frame since the last alignment was measured on the scene (the surroundings' chain, the aligned keyframes):
+    # the estimate is a measurement, not a guess (HybridConfig.surroundings_veto_frames)
+    scene_held: bool = True
 
     def saw(self, thumb: np.ndarray | None) -> float:
         """This frame's thumbnail replaces the last one; returns how the two correlate (1: one shot, ~0: a cut; 1 when
@@ -234,6 +240,7 @@ class HybridState:
         self.predict_run = self.drift_run = self.since_aligned = 0
         self.jump, self.jump_frames = None, 0
         self.after_cut = False
+        self.scene_held = True
         self.keyframe = (work, A)
         for s in sources:
             s.on_aligned(work, self)
@@ -245,6 +252,7 @@ class HybridState:
         self.since_aligned += 1
         if proposal.kind == Kind.ABSOLUTE:  # the chain goes on from here
             self.drift_run = 0
+            self.scene_held = True
             self.keyframe = (work, proposal.A)
         for s in sources:
             s.on_measured(work, self, proposal)
@@ -254,6 +262,7 @@ class HybridState:
         self.predict_run += 1
         self.drift_run += 1
         self.since_aligned += 1
+        self.scene_held = False
         for s in sources:
             s.on_predicted(work, self)
 
