@@ -112,6 +112,11 @@ TARGET_MOTIONS = ("static", "moving", "auto")  # HybridConfig.target_motion
 CUT_THUMB = (32, 24)  # the thumbnail two frames are compared on for a scene cut (w, h)
 CUT_MIN_CONTRAST = 2.0 / 255  # a thumbnail with less RMS contrast (intensity in [0, 1]) has nothing to compare
 
+# predictor frames since the last alignment or re-anchoring after which the estimate is no longer the surroundings'
+# (HybridConfig.surroundings_veto_frames): half a second of guesses. A shirt printed with the scene's texture left the
+# chain unmeasured for 6 frames before its far match came (natural benchmark, `lookalike`); a jump within the
+# predictor's possible drift is accepted anyway (HybridConfig.reacquire_px, background_gate_px)
+SURROUNDINGS_GUESSES = 15
 CONFIDENCE_HALF_LIFE = 30  # frames (1 s at 30 Hz) since the last alignment over which an unaligned pose's confidence halves
 PREDICTED_CONFIDENCE = 0.5  # a predictor's guess, relative to a measurement of the scene's motion
 
@@ -155,11 +160,11 @@ class HybridConfig:
     reacquire_drift_px: float = 0.5
     reacquire_margin: float = 0.1
     reacquire_frames: int = 3
-    # a static target's far jump that the surroundings contradict: while every frame since the last alignment was
-    # measured on the surroundings (no predictor guess, no seed), they say where the target is, and a unique match
-    # far from there is a look-alike (clothing printed with the scene's own texture, paused over the target), refused
-    # until it has been seen on this many consecutive frames (3 s at 30 Hz: a chain that went wrong is not held
-    # forever). 0: off, as before (README, harder occluders)
+    # a static target's far jump that the surroundings contradict: while the frames since the last alignment were
+    # measured on the surroundings (at most SURROUNDINGS_GUESSES predictor guesses, no seed), they say where the
+    # target is, and a unique match far from there is a look-alike (clothing printed with the scene's own texture,
+    # paused over the target), refused until seen on this many consecutive frames (3 s at 30 Hz: a chain that went
+    # wrong is not held forever). 0: off (docs/results.md, harder occluders)
     surroundings_veto_frames: int = 90
     # what the target does: "static" (fixed in the scene, the servo case: the surroundings' motion is its motion, and
     # a far jump must be verified), "moving" (it moves on its own, as footage often shows: a confident match is never
@@ -310,8 +315,9 @@ class HybridTracker(Tracker):
             st.jump_seen(None, 0.0)
             return False
         seen = st.jump_seen(offset, c.background_gate_px)
-        if c.surroundings_veto_frames and st.scene_held and seen < c.surroundings_veto_frames:
-            return False  # the surroundings, measured on every frame since the alignment, put the target elsewhere
+        held = st.scene_held and st.drift_run <= SURROUNDINGS_GUESSES
+        if c.surroundings_veto_frames and held and seen < c.surroundings_veto_frames:
+            return False  # the surroundings, measured since the alignment, put the target elsewhere
         return seen >= c.reacquire_frames
 
     def _judge_motion(self, work: np.ndarray, A: np.ndarray) -> None:

@@ -214,8 +214,8 @@ class HybridState:
     jump_frames: int = 0
     thumb: np.ndarray | None = None  # the last frame's thumbnail (HybridTracker's cut test)
     after_cut: bool = False  # a scene cut was seen and the target not aligned since: lost
-    # every frame since the last alignment was measured on the scene (the surroundings' chain, the aligned keyframes):
-    # the estimate is a measurement, not a guess (HybridConfig.surroundings_veto_frames)
+    # the estimate comes from this tracker's own alignments and measurements of the scene, not from a pose given from
+    # outside (Tracker.seed); with few predictor frames since (drift_run) it is the surroundings' (HybridTracker._verified)
     scene_held: bool = True
 
     def saw(self, thumb: np.ndarray | None) -> float:
@@ -262,7 +262,6 @@ class HybridState:
         self.predict_run += 1
         self.drift_run += 1
         self.since_aligned += 1
-        self.scene_held = False
         for s in sources:
             s.on_predicted(work, self)
 
