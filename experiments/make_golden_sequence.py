@@ -4,6 +4,7 @@ and the hybrid's per-frame error on it. tests/test_golden.py holds every later h
 envelope, so a change that alters the tracker's behaviour shows up as a failing test.
 
     python experiments/make_golden_sequence.py     # → tests/data/golden_pause.mp4 + golden_pause.npz
+    python experiments/make_golden_sequence.py --envelope-only   # the error again, on the committed video
 
 Frames (clean renders) are stored as an MPEG-4 video so that the file stays small; the test decodes
 the same file, so what it tracks is exactly what the envelope was measured on. Re-run this (and say why in
@@ -65,10 +66,27 @@ def track_errors(frames: np.ndarray, roi, gt: np.ndarray) -> tuple[np.ndarray, l
     return np.array(err), modes
 
 
+def remeasure(path: Path) -> None:
+    """The envelope written again for a hybrid meant to behave differently, on the very frames of the committed video."""
+    g = np.load(path)
+    frames = decode(path.parent / str(g["video"]))
+    err, modes = track_errors(frames, tuple(int(v) for v in g["roi"]), g["gt"])
+    kept = {k: g[k] for k in g.files if k not in ("error", "modes")}
+    np.savez_compressed(path, **kept, error=err, modes=np.array(modes))
+    print(f"{path}: hybrid error median {np.median(err):.3f} px (was {np.median(g['error']):.3f}), max {err.max():.2f} "
+          f"px (was {g['error'].max():.2f}), {int((err > 2).sum())} frames over 2 px (was {int((g['error'] > 2).sum())})")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default="tests/data/golden_pause.npz")
+    ap.add_argument("--envelope-only", action="store_true",
+                    help="re-measure the hybrid's error on the committed video and keep everything else (no render: "
+                         "the renderer's pixels may have moved since the video was made)")
     args = ap.parse_args()
+    if args.envelope_only:
+        remeasure(Path(args.out))
+        return
     seq = make_sequence(make_scenario(SCENARIO, mount="handheld", seed=SEED, camera=CameraConfig(sensor=CAMERA)),
                         n_frames=FIRST + COUNT)
     rendered = seq.frames[FIRST:FIRST + COUNT][:, CROP[0], CROP[1]]
