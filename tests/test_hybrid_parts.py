@@ -191,7 +191,7 @@ def test_a_far_jump_the_surroundings_contradict_is_held_back():
     far = pose_to_matrix((60.0, 0.0, 0.0, 1.0), tr.center0)
     unique = Match(np.zeros(2), 0.9, 0.3)
     assert [tr._verified(far, unique) for _ in range(5)] == [False] * 4 + [True]
-    # a seeded estimate (or a predictor's guess) is not a measurement: the usual confirmation over reacquire_frames
+    # a seeded estimate is not this tracker's measurement: the usual confirmation over reacquire_frames
     seeded = make_tracker("hybrid", surroundings_veto_frames=5)
     seeded.init(img, ROI)
     seeded.seed(np.eye(3))
@@ -200,6 +200,15 @@ def test_a_far_jump_the_surroundings_contradict_is_held_back():
     for bad in (-1, 2.5, True):
         with pytest.raises(ConfigError, match="surroundings_veto_frames"):
             make_tracker("hybrid", surroundings_veto_frames=bad)
+
+
+def test_a_variants_surroundings_settings_stay_under_the_callers():
+    # the variant's background_config (a dict) and the caller's are merged, as the LK's settings are
+    bg = make_tracker("hybrid_similarity_chain", background_config={"hop": 3}).hconfig.background_config
+    assert bg.hop == 3 and not bg.homography and not bg.occluder_prior and bg.cell_corners == 0
+    assert make_tracker("hybrid", background_config={"cell_corners": 2}).hconfig.background_config.homography
+    with pytest.raises(ConfigError, match="background_config"):
+        make_tracker("hybrid_similarity_chain", background_config={"hops": 3})
 
 
 @pytest.mark.parametrize("settings", [{}, {"warp": "homography"}, {"residual": True},

@@ -37,16 +37,21 @@ def _lk_from_dict(name: str, config: dict, base) -> dict:
     return {**config, "lk": replace(base, **_settings(f"{name} lk", LKConfig, config["lk"]))}
 
 
+NESTED_SETTINGS = ("lk", "background_config")  # config fields that are configs themselves, accepted as dicts
+
+
 def _builder(name: str, config: dict):
     """The checked configuration of tracker `name` with `config` overriding its settings, as a function
     that builds the tracker (the checks are cheap; building loads weights)."""
     spec: TrackerSpec | None = TRACKERS.get(name)
     if spec is None:
         raise choice_error("tracker", name, TRACKER_NAMES)
-    lk_dicts = [c["lk"] for c in (spec.config, config) if isinstance(c.get("lk"), dict)]
-    config = {**spec.config, **config}
-    if lk_dicts and isinstance(config["lk"], dict):  # LK settings as dicts (variant, then caller), read below
-        config["lk"] = {k: v for d in lk_dicts for k, v in d.items()}
+    merged = {**spec.config, **config}
+    for key in NESTED_SETTINGS:  # nested settings as dicts: the variant's, then the caller's on top, read below
+        dicts = [c[key] for c in (spec.config, config) if isinstance(c.get(key), dict)]
+        if dicts and isinstance(merged[key], dict):
+            merged[key] = {k: v for d in dicts for k, v in d.items()}
+    config = merged
     if spec.base == "deep_lk":
         from hvs_sim.tracking.deep_lk import DeepLKConfig, DeepLKTracker
 

@@ -299,7 +299,6 @@ class BackgroundMotion:
         """The scene's motion from `src` to `grey` (`frames` apart) and its similarity, or None when the scene gives
         no trustworthy one. `hidden`: the hidden target's box in `src` (4×2), or None."""
         c = self.config
-        hidden = hidden if c.occluder_prior else None
         pts = _corners(src, c, c.max_points)
         if pts is None or len(pts) < c.min_inliers:
             return None
@@ -309,7 +308,7 @@ class BackgroundMotion:
             V = np.linalg.matrix_power(self.velocity, frames)
             expected = apply(V, pts[ok]) - pts[ok]
         p, q = pts[ok], nxt[ok]
-        S, inl = _consensus(p, q, c, expected, hidden if c.competing else None)
+        S, inl = _consensus(p, q, c, expected, hidden if c.occluder_prior and c.competing else None)
         if S is None:
             return None
         return (_plane_refit(S, p[inl], q[inl], src.shape[:2]) if c.homography else S), S

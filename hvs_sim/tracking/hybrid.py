@@ -266,7 +266,8 @@ class HybridTracker(Tracker):
         if self.hconfig.colour_occlusion and frame.ndim == 3:
             self.colour_reference = OcclusionReference(al.template_patch(al.work_colour(frame)), self.config.tau_pix,
                                                        self.config.normalise_exposure)
-        self.state = HybridState(center0=self.center0, corners0=self.corners0, A=np.eye(3), keyframe=(work, np.eye(3)), thumb=_thumb(work))
+        self.state = HybridState(center0=self.center0, corners0=self.corners0, A=np.eye(3), keyframe=(work, np.eye(3)),
+                                 thumb=_thumb(work))
         c = self.hconfig
         self.target_motion = None if c.target_motion == "auto" else c.target_motion
         self._evidence, self._evidence_frames, self._aligned_frames = np.zeros(2), 0, 0
