@@ -51,6 +51,24 @@ def test_recovers_perspective_warps_of_photos_within_a_tenth_of_a_pixel(name):
         assert worst(res.warp, truth) < 0.1, (k, worst(res.warp, truth))
 
 
+def test_the_predicted_stop_saves_steps_and_lands_within_the_stopping_tolerance(monkeypatch):
+    """Stopping where the geometric tail of the steps is under IC_EPS_PX ends within that of where stepping on to
+    the last small step ends."""
+    from hvs_sim.tracking import intensity_ic
+
+    g = grey("chelsea")
+    ic = model(g)
+    cases = [warped(g, k) for k in range(4)]
+    runs = []
+    for ratio in (intensity_ic.PREDICT_MAX_RATIO, 0.0):  # 0: never predicts, steps until one is under IC_EPS_PX
+        monkeypatch.setattr(intensity_ic, "PREDICT_MAX_RATIO", ratio)
+        runs.append([ic.align(frame, OFF @ truth) for frame, truth in cases])
+    predicted, stepped = runs
+    assert sum(r.iterations for r in predicted) < sum(r.iterations for r in stepped)
+    for a, b in zip(predicted, stepped, strict=True):
+        assert a.converged and b.converged and worst(a.warp, b.warp) < intensity_ic.IC_EPS_PX
+
+
 def test_from_the_truth_on_its_own_frame_it_stays_and_an_exposure_change_does_not_move_it():
     g = grey("chelsea")
     ic = model(g)
@@ -117,14 +135,14 @@ def test_smoothing_in_the_frame_as_ecc_does_is_the_hybrids_and_a_wrong_mode_is_r
 
 
 def test_the_3x3_update_inverse_matches_numpy_and_a_singular_one_gives_none():
-    from hvs_sim.tracking.intensity_ic import _inverse_3x3
+    from hvs_sim.tracking.warp import inverse_3x3
 
     rng = np.random.default_rng(3)
     for _ in range(20):
         M = np.eye(3) + 0.2 * rng.standard_normal((3, 3))
-        assert np.allclose(_inverse_3x3(M), np.linalg.inv(M), atol=1e-12)
-    assert _inverse_3x3(np.ones((3, 3))) is None
-    assert _inverse_3x3(np.full((3, 3), np.nan)) is None
+        assert np.allclose(inverse_3x3(M), np.linalg.inv(M), atol=1e-12)
+    assert inverse_3x3(np.ones((3, 3))) is None
+    assert inverse_3x3(np.full((3, 3), np.nan)) is None
 
 
 def test_frame_mode_gives_the_same_answer_for_a_uint8_and_a_float_frame_and_a_flat_template_gives_none():

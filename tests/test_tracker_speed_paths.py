@@ -483,18 +483,18 @@ def test_colour_near_the_patch_is_the_whole_working_image_there():
         A = pose_to_matrix((rng.uniform(-140, 140), rng.uniform(-100, 100), rng.uniform(-0.5, 0.5), rng.uniform(0.7, 1.4)),
                            al.c_work)
         tilted = i % 3 == 0
-        if tilted:  # a homography: the whole image (OpenCV's perspective warp rounds a moved one differently)
+        if tilted:  # a homography: cropped too (OpenCV's perspective warp rounds a moved one a little differently)
             A = A @ np.array([[1, 0, 0], [0, 1, 0], [rng.uniform(-1e-3, 1e-3), rng.uniform(-1e-3, 1e-3), 1]])
         near, offset = al.work_colour_near(img, A)
         x0, y0 = offset.astype(int)
         assert np.array_equal(near, whole[y0:y0 + near.shape[0], x0:x0 + near.shape[1]])
-        assert (near.shape == whole.shape) == tilted or not np.all(np.isfinite(apply(A, al.t_corners)))
+        assert near.shape != whole.shape or not np.all(np.isfinite(apply(A, al.t_corners)))
         a = aligned_patch(whole, A, al.t_origin, (al.th, al.tw))
         b = aligned_patch(near, translate(A, -offset), al.t_origin, (al.th, al.tw))
         assert np.array_equal(a[1], b[1]), i
         # the same samples but where OpenCV rounds a sample point to the other 1/32 px
         changed = np.abs(a[0].astype(int) - b[0].astype(int))
-        assert np.mean(changed > 0) < 0.002 and changed.max() <= 2, i  # 300 warps: ≤ 0.04 %, by 1 level
+        assert np.mean(changed > 0) < 0.002 and changed.max() <= 2, i  # 300 warps: ≤ 0.04 %, by 1 level (tilted: ≤ 0.06 %)
         assert abs(reference(*a) - reference(*b)) <= 0.001
     odd = np.ascontiguousarray(img[:479])  # a height the working scale does not divide: the whole image
     near, offset = al.work_colour_near(odd, np.eye(3))

@@ -40,6 +40,7 @@ from hvs_sim.tracking.warp import (
     apply,
     check_warp,
     homography_params_to_matrix,
+    inverse_3x3,
     is_affine,
     params_to_matrix,
 )
@@ -137,10 +138,11 @@ def gradient_basis(gx: np.ndarray, gy: np.ndarray, k: int) -> np.ndarray | None:
     return np.ascontiguousarray(vt[:k].T, dtype=np.float32)
 
 
-def _inverse_update(dp: np.ndarray, warp: str) -> np.ndarray:
-    """W(Δp)⁻¹: closed form for the similarity [[c, −b, tx], [b, c, ty]] (c = 1 + a), else a 3×3 inverse."""
+def _inverse_update(dp: np.ndarray, warp: str) -> np.ndarray | None:
+    """W(Δp)⁻¹: closed form for the similarity [[c, −b, tx], [b, c, ty]] (c = 1 + a), else the 3×3 adjugate
+    (None: W(Δp) is singular)."""
     if warp != "similarity":
-        return np.linalg.inv(update_matrix(dp, warp))
+        return inverse_3x3(update_matrix(dp, warp))
     a, b, tx, ty = dp
     c = 1.0 + a
     d = c * c + b * b
@@ -346,7 +348,10 @@ class FeatureICLK:
                     dp = np.linalg.solve(H, b)
                 except np.linalg.LinAlgError:
                     return AlignResult(M, total, valid_share, float("nan"), per_level)
-                M = M @ _inverse_update(dp, self.warp)
+                inv = _inverse_update(dp, self.warp)
+                if inv is None:
+                    return AlignResult(M, total, valid_share, float("nan"), per_level)
+                M = M @ inv
                 if self.warp == "homography":
                     M = M / M[2, 2]
                 total += 1

@@ -83,8 +83,13 @@ HYBRID_LK = LKConfig(levels=("pool1", "conv1_2"), iterations=(15, 8), channels=8
 # instead of up to 8 (5.4 on average). On the speed benchmark's frames that took ~0.5 ms off the homography
 # hybrid's median, and the corners on warped photos and tilted hand-held sequences stayed where 8 left them (within
 # 0.003 px in the median; README, homography). pool1 alone was faster again but ended 3–11 px off on a tenth of the
-# warped photos, from the identity.
-HYBRID_LK_HOMOGRAPHY = replace(HYBRID_LK, iterations=(15, 3))
+# warped photos, from the identity. For the same reason each level stops sooner than the similarity's: pool1 lands
+# 0.3–0.6 work px from conv1_2's optimum (its first update there), so it stops at 0.2 px (0.1 × its stride), and
+# conv1_2's updates run ~0.5, 0.07, 0.015 px, so it stops at 0.1 px and the refinement takes the rest in a cheaper
+# step. On bench_homography's tilted hand-held sequences that took the homography's cost from 1.44 to ~1.3× the
+# similarity's, with the same errors there and on the warped photos (docs/tuning.md).
+HOMOGRAPHY_LK_EPS = 0.1
+HYBRID_LK_HOMOGRAPHY = replace(HYBRID_LK, iterations=(15, 3), eps=HOMOGRAPHY_LK_EPS, coarse_eps=HOMOGRAPHY_LK_EPS)
 HYBRID_MARGIN = 5
 
 

