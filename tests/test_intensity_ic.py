@@ -51,24 +51,6 @@ def test_recovers_perspective_warps_of_photos_within_a_tenth_of_a_pixel(name):
         assert worst(res.warp, truth) < 0.1, (k, worst(res.warp, truth))
 
 
-def test_the_predicted_stop_saves_steps_and_lands_within_the_stopping_tolerance(monkeypatch):
-    """Stopping where the geometric tail of the steps is under IC_EPS_PX ends within that of where stepping on to
-    the last small step ends."""
-    from hvs_sim.tracking import intensity_ic
-
-    g = grey("chelsea")
-    ic = model(g)
-    cases = [warped(g, k) for k in range(4)]
-    runs = []
-    for ratio in (intensity_ic.PREDICT_MAX_RATIO, 0.0):  # 0: never predicts, steps until one is under IC_EPS_PX
-        monkeypatch.setattr(intensity_ic, "PREDICT_MAX_RATIO", ratio)
-        runs.append([ic.align(frame, OFF @ truth) for frame, truth in cases])
-    predicted, stepped = runs
-    assert sum(r.iterations for r in predicted) < sum(r.iterations for r in stepped)
-    for a, b in zip(predicted, stepped, strict=True):
-        assert a.converged and b.converged and worst(a.warp, b.warp) < intensity_ic.IC_EPS_PX
-
-
 def test_from_the_truth_on_its_own_frame_it_stays_and_an_exposure_change_does_not_move_it():
     g = grey("chelsea")
     ic = model(g)

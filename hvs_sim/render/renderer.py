@@ -7,6 +7,7 @@ truth comes from geometry only; with lens distortion it is projected through the
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import cv2
@@ -354,12 +355,27 @@ class Renderer:
         check_number("still frames", n, 1, MAX_STILL_FRAMES, integer=True)
         if self._ideal:
             return self.rgb()
+        acc = np.zeros((self.height, self.width, 3), np.float32)
+        for frame in self.still_frames(n):
+            acc += frame
+        return np.rint(acc / np.float32(n)).astype(np.uint8)
+
+    def still_frames(self, n: int) -> Iterator[np.ndarray]:
+        """`n` frames (uint8 RGB) of the scene held still, each with its own noise (camera_model.STILL_STREAM), as
+        still_average averages them: what a tracker sees frame by frame from a camera that does not move."""
+        check_number("still frames", n, 1, MAX_STILL_FRAMES, integer=True)
+        return self._still_frames(n)
+
+    def _still_frames(self, n: int) -> Iterator[np.ndarray]:
+        if self._ideal:
+            frame = self.rgb()
+            for _ in range(n):
+                yield frame.copy()
+            return
         scene = self.scene
         linear = self._exposure()  # nothing moves between the frames: one exposure, n captures
-        acc = np.zeros((self.height, self.width, 3), np.float32)
         for k in range(n):
-            acc += self._state.capture(linear, k, scene.time, 1.0 / scene.scenario.fps, stream=STILL_STREAM)
-        return np.rint(acc / np.float32(n)).astype(np.uint8)
+            yield self._state.capture(linear, k, scene.time, 1.0 / scene.scenario.fps, stream=STILL_STREAM)
 
     @property
     def noise_seed(self) -> int:

@@ -48,7 +48,7 @@ from hvs_sim.validate import check_number
 
 HUBER_K = 1.345  # Huber threshold in robust standard deviations (95 % efficiency on Gaussian residuals)
 MAD_TO_SIGMA = 1.4826  # median absolute deviation → standard deviation
-_UNIT_BOX = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])  # normalised template extent
+_UNIT_CORNERS = ((-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0))  # normalised template extent
 PREDICT_MAX_RATIO = 0.5  # LKConfig.predict_stop trusts a geometric tail only when updates at least halve
 
 
@@ -281,7 +281,9 @@ class FeatureICLK:
         """How far an update moves template points (work px), taken at the template's extent."""
         if self.warp == "similarity":  # the paper's rule, kept as it was
             return self.rho * float(np.abs(dp).sum())
-        return self.rho * float(np.abs(apply(update_matrix(dp, self.warp), _UNIT_BOX) - _UNIT_BOX).max())
+        (a, b, c), (d, e, f), (g, h, i) = update_matrix(dp, self.warp).tolist()  # the unit box's corners, in floats
+        return self.rho * max(max(abs((a * x + b * y + c) / (g * x + h * y + i) - x),
+                                  abs((d * x + e * y + f) / (g * x + h * y + i) - y)) for x, y in _UNIT_CORNERS)
 
     def align(self, feats: dict[str, torch.Tensor], origin: np.ndarray, crop_shape: tuple[int, int],
               M0: np.ndarray) -> AlignResult:

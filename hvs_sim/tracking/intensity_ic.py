@@ -24,15 +24,12 @@ import numpy as np
 
 from hvs_sim.errors import ConfigError
 from hvs_sim.tracking.ecc import prefilter
-from hvs_sim.tracking.feature_lk import PREDICT_MAX_RATIO, warp_jacobian
+from hvs_sim.tracking.feature_lk import warp_jacobian
 from hvs_sim.tracking.warp import homography_params_to_matrix, inverse_3x3
 
 IC_ITERATIONS = 15  # Gauss–Newton steps at most
 IC_EPS_PX = 1e-3  # stop when a step moves the template's corners by less than this (full-resolution px)
 IC_MAX_STEP_PX = 8.0  # a step that moves a corner further than this has diverged: no answer
-# also stop when the steps shrink geometrically (ratio q ≤ feature_lk.PREDICT_MAX_RATIO) and what they would still
-# move, d·q / (1 − q) for a step d, is under IC_EPS_PX: the steps shrink by ~0.18 each here (tilted hand-held
-# frames), so the last step to 1e-3 px was one a frame that moved the corners by ~2e-4 px
 # "template": the frame resampled bicubically and smoothed on the template's grid: the more accurate on warped
 # photos (module docstring). "frame": smoothed in the frame's pixels, then resampled bilinearly, as ECC does. In the
 # closed 6-DOF servo loop through `phone_handheld` (tuning episodes 306–319, clear / walk_by / pause, median final
@@ -52,7 +49,7 @@ CLIP_LO, CLIP_HI = 1, 254
 class ICResult:
     warp: np.ndarray  # (3, 3) template px → frame px, h33 = 1
     iterations: int
-    converged: bool  # the last step, or what the steps would still move, was under IC_EPS_PX (else IC_ITERATIONS ran out)
+    converged: bool  # the last step was under IC_EPS_PX (else IC_ITERATIONS ran out)
 
 
 class IntensityIC:
@@ -168,7 +165,6 @@ class IntensityIC:
         box = self._frame_box(grey, W) if self.smooth == "frame" else None
         old = W @ self.corners_h
         old = old[:2] / old[2]
-        last = None  # the step before's corner movement
         for it in range(1, IC_ITERATIONS + 1):
             img = self._resampled(grey, W, box)
             if use is not None:
@@ -193,11 +189,6 @@ class IntensityIC:
             W, old = W_new, new
             if moved < IC_EPS_PX:
                 return ICResult(W, it, True)
-            if last is not None and moved <= PREDICT_MAX_RATIO * last:
-                q = moved / last
-                if moved * q / (1.0 - q) < IC_EPS_PX:
-                    return ICResult(W, it, True)
-            last = moved
         return ICResult(W, IC_ITERATIONS, False)
 
 

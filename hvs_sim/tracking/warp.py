@@ -71,25 +71,20 @@ def local_affine(A: np.ndarray, center) -> np.ndarray:
     """The affine map that agrees with the warp A to first order at `center` (A itself when affine)."""
     if is_affine(A):
         return A
-    c = np.asarray(center, float)
-    w = float(A[2, :2] @ c + A[2, 2])
-    moved = (A[:2, :2] @ c + A[:2, 2]) / w
-    J = (A[:2, :2] - np.outer(moved, A[2, :2])) / w  # Jacobian of the projective map at c
-    out = np.eye(3)
-    out[:2, :2] = J
-    out[:2, 2] = moved - J @ c
-    return out
+    (a, b, c), (d, e, f), (g, h, i) = A.tolist()  # Python floats: a 3×3's numpy calls cost more than their sums
+    cx, cy = float(center[0]), float(center[1])
+    w = g * cx + h * cy + i
+    mx, my = (a * cx + b * cy + c) / w, (d * cx + e * cy + f) / w  # where the centre goes
+    j00, j01, j10, j11 = (a - mx * g) / w, (b - mx * h) / w, (d - my * g) / w, (e - my * h) / w  # the Jacobian there
+    return np.array([[j00, j01, mx - (j00 * cx + j01 * cy)], [j10, j11, my - (j10 * cx + j11 * cy)], [0.0, 0.0, 1.0]])
 
 
 def matrix_to_pose(A: np.ndarray, center) -> np.ndarray:
     """Inverse of `pose_to_matrix` (projects the warp's local affine part at the centre onto the nearest similarity)."""
-    A = local_affine(A, center)
-    a = 0.5 * (A[0, 0] + A[1, 1])
-    b = 0.5 * (A[1, 0] - A[0, 1])
-    c = np.asarray(center, float)
-    moved = A[:2, :2] @ c + A[:2, 2]
-    t = moved - c
-    return np.array([t[0], t[1], math.atan2(b, a), math.hypot(a, b)])
+    (a00, a01, a02), (a10, a11, a12), _ = local_affine(A, center).tolist()
+    cx, cy = float(center[0]), float(center[1])
+    a, b = 0.5 * (a00 + a11), 0.5 * (a10 - a01)
+    return np.array([a00 * cx + a01 * cy + a02 - cx, a10 * cx + a11 * cy + a12 - cy, math.atan2(b, a), math.hypot(a, b)])
 
 
 def project_similarity(A: np.ndarray, center) -> np.ndarray:
