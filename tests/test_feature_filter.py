@@ -137,10 +137,17 @@ def test_averaged_still_frames_cut_the_cameras_noise():
     assert e1 > 2.0 and e16 < 0.35 * e1, (e1, e16)  # ~1/4 of the noise, plus rounding
     assert not np.array_equal(r.still_average(16), r.still_average(8))
     assert np.array_equal(r.still_average(16), r.still_average(16))  # seeded
+    # one by one (Renderer.still_frames): each its own noise, and still_average is their rounded mean
+    frames = list(r.still_frames(4))
+    assert len(frames) == 4 and not np.array_equal(frames[0], frames[1])
+    assert np.array_equal(np.rint(np.sum(frames, axis=0, dtype=np.float32) / np.float32(4)).astype(np.uint8),
+                          r.still_average(4))
     ideal = Renderer(Scene(make_scenario("clear", mount="arm", camera=CameraConfig(width=320, height=240))))
     assert np.array_equal(ideal.still_average(16), ideal.rgb())
-    with pytest.raises(ConfigError, match="still frames"):
-        r.still_average(0)
+    assert all(np.array_equal(f, ideal.rgb()) for f in ideal.still_frames(3))
+    for bad in (r.still_average, r.still_frames):  # refused when called, not when first read
+        with pytest.raises(ConfigError, match="still frames"):
+            bad(0)
 
 
 def test_the_loop_filters_tracked_six_dof_corners_and_says_so():
