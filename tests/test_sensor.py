@@ -261,6 +261,18 @@ def test_realistic_frames_are_seeded_end_to_end():
     assert np.array_equal(fa, fb)
 
 
+def test_a_frames_time_is_split_into_the_light_and_the_sensors_electronics():
+    r = renderer_for("phone_handheld", "walk_by", seed=2)
+    r.rgb()
+    first = dict(r.stage_ms)
+    assert set(first) == {"light", "sensor"} and first["light"] > 0 and first["sensor"] > 0
+    r.rgb()  # the same frame again: kept, not captured anew, so the split is the new frame's still
+    assert r.stage_ms == first
+    ideal = renderer_for("ideal", "walk_by", seed=2)
+    ideal.rgb()
+    assert ideal.stage_ms["light"] > 0 and ideal.stage_ms["sensor"] == 0.0
+
+
 def test_capture_leaves_the_physics_and_the_lights_as_they_were():
     """Sub-frame renders rewind the world and dim the lights; the arm's motion and later renders must not notice."""
     from hvs_sim.scene.world import Scene

@@ -7,6 +7,7 @@ truth comes from geometry only; with lens distortion it is projected through the
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -123,6 +124,7 @@ class Renderer:
             self._only_people.geomgroup[g] = int(g == OCCLUDER_GROUP)
             self._target_and_people.geomgroup[g] = int(g in (OCCLUDER_GROUP, TARGET_GROUP))
         self._cam: engine.Camera | None = None  # made at the first render (the fork check ran in __init__)
+        self.stage_ms: dict[str, float] = {}  # the last new frame's ms per stage (rgb)
         self.supersample = cam.supersample
         self._cam_ss: engine.Camera | None = None  # the colour renders at supersample× the size (supersample > 1)
 
@@ -157,16 +159,24 @@ class Renderer:
 
     def rgb(self) -> np.ndarray:
         """H×W×3 uint8 RGB frame as the camera delivers it (the raw render for the `ideal` model; supersampled, its
-        mean per pixel)."""
+        mean per pixel). `stage_ms` then holds where a new frame's time went: "light", the renders and what is done
+        to the light (motion blur, flicker, the lens), and "sensor", the camera's electronics (noise, gain, the ADC,
+        the sRGB curve, JPEG)."""
+        t0 = time.perf_counter()
         if self._ideal:
-            return self._render() if self.supersample == 1 else encode(self._render_linear())
+            frame = self._render() if self.supersample == 1 else encode(self._render_linear())
+            self.stage_ms = {"light": 1e3 * (time.perf_counter() - t0), "sensor": 0.0}
+            return frame
         scene = self.scene
         key = (scene.resets, scene.frame_index)
         if self._last is not None and self._last[0] == key:
             return self._last[1].copy()  # auto-exposure and noise advance once per frame
         if self._last is not None and self._last[0][0] != key[0]:
             self._state = SensorState(self.sensor, self.noise_seed, (self.height, self.width))  # a new episode
-        frame = self._state.capture(self._exposure(), scene.frame_index, scene.time, 1.0 / scene.scenario.fps)
+        linear = self._exposure()
+        t1 = time.perf_counter()
+        frame = self._state.capture(linear, scene.frame_index, scene.time, 1.0 / scene.scenario.fps)
+        self.stage_ms = {"light": 1e3 * (t1 - t0), "sensor": 1e3 * (time.perf_counter() - t1)}
         self._last = (key, frame)
         return frame.copy()
 
