@@ -148,6 +148,19 @@ def test_projective_apply_and_local_pose():
     lin = apply(local_affine(Hm, c), (c + d)[None])[0]
     assert np.allclose(lin, apply(Hm, (c + d)[None])[0], atol=1e-6)
     assert np.allclose(matrix_to_pose(Hm, c)[:2], apply(Hm, c[None])[0] - c)
+    # a centre on the horizon has no local affine map: a non-finite answer, not an exception
+    horizon = np.array([[1.0, 0, 0], [0, 1.0, 0], [-0.1, 0, 1.0]])  # w = 0 at x = 10
+    assert not np.all(np.isfinite(local_affine(horizon, (10.0, 0.0))))
+    assert not np.all(np.isfinite(matrix_to_pose(horizon, (10.0, 0.0))))
+    # the homography LK's update size: the largest corner move of the unit box, infinite where a corner goes to infinity
+    from hvs_sim.tracking.feature_lk import FeatureICLK, LKConfig
+
+    lk = FeatureICLK(LKConfig(), warp="homography")
+    lk.rho = 30.0
+    dp = np.array([0.01, 0, 0.02, 0, -0.01, 0, 1e-3, 0])
+    box = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+    assert lk.update_size(dp) == pytest.approx(30.0 * np.abs(apply(homography_params_to_matrix(dp), box) - box).max())
+    assert lk.update_size(np.array([0, 0, 0, 0, 0, 0, -1.0, 0])) == math.inf
 
 
 def test_residual_and_unknown_warp_are_refused():

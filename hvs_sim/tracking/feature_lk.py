@@ -26,6 +26,7 @@ changes the features (the hybrid: 8 of 64; README, tracker speed).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -282,8 +283,13 @@ class FeatureICLK:
         if self.warp == "similarity":  # the paper's rule, kept as it was
             return self.rho * float(np.abs(dp).sum())
         (a, b, c), (d, e, f), (g, h, i) = update_matrix(dp, self.warp).tolist()  # the unit box's corners, in floats
-        return self.rho * max(max(abs((a * x + b * y + c) / (g * x + h * y + i) - x),
-                                  abs((d * x + e * y + f) / (g * x + h * y + i) - y)) for x, y in _UNIT_CORNERS)
+        size = 0.0
+        for x, y in _UNIT_CORNERS:
+            w = g * x + h * y + i
+            if w == 0.0:  # a corner sent to infinity: an update of no finite size
+                return math.inf
+            size = max(size, abs((a * x + b * y + c) / w - x), abs((d * x + e * y + f) / w - y))
+        return self.rho * size
 
     def align(self, feats: dict[str, torch.Tensor], origin: np.ndarray, crop_shape: tuple[int, int],
               M0: np.ndarray) -> AlignResult:

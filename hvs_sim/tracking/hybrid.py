@@ -86,8 +86,9 @@ HYBRID_LK = LKConfig(levels=("pool1", "conv1_2"), iterations=(15, 8), channels=8
 # warped photos, from the identity. For the same reason each level stops sooner than the similarity's: pool1 lands
 # 0.3–0.6 work px from conv1_2's optimum (its first update there), so it stops at 0.2 px (0.1 × its stride), and
 # conv1_2's updates run ~0.5, 0.07, 0.015 px, so it stops at 0.1 px and the refinement takes the rest in a cheaper
-# step. On bench_homography's tilted hand-held sequences that took the homography's cost from 1.44 to ~1.3× the
-# similarity's, with the same errors there and on the warped photos (docs/tuning.md).
+# step. On bench_homography's tilted hand-held sequences that took the homography's cost from 1.44 to 1.24–1.31× the
+# similarity's (with the cheaper per-frame steps beside it), the errors there and on the warped photos within
+# 0.01 px (docs/tuning.md).
 HOMOGRAPHY_LK_EPS = 0.1
 HYBRID_LK_HOMOGRAPHY = replace(HYBRID_LK, iterations=(15, 3), eps=HOMOGRAPHY_LK_EPS, coarse_eps=HOMOGRAPHY_LK_EPS)
 HYBRID_MARGIN = 5

@@ -73,7 +73,7 @@ def local_affine(A: np.ndarray, center) -> np.ndarray:
         return A
     (a, b, c), (d, e, f), (g, h, i) = A.tolist()  # Python floats: a 3×3's numpy calls cost more than their sums
     cx, cy = float(center[0]), float(center[1])
-    w = g * cx + h * cy + i
+    w = (g * cx + h * cy + i) or math.nan  # the centre on the horizon: no local affine, a non-finite answer
     mx, my = (a * cx + b * cy + c) / w, (d * cx + e * cy + f) / w  # where the centre goes
     j00, j01, j10, j11 = (a - mx * g) / w, (b - mx * h) / w, (d - my * g) / w, (e - my * h) / w  # the Jacobian there
     return np.array([[j00, j01, mx - (j00 * cx + j01 * cy)], [j10, j11, my - (j10 * cx + j11 * cy)], [0.0, 0.0, 1.0]])
