@@ -264,7 +264,8 @@ def add_bench_parser(sub) -> None:
                    help="servo only: steps each episode runs past its scenario's end (default 60)")
     p.add_argument("--roi-inset", type=int, default=None, metavar="PX",
                    help="servo only: cut the template this many pixels inside the target's outline (as `run "
-                        "--roi-inset`; default: 8 with a goal template, 0 with a start one)")
+                        "--roi-inset`; default: 8 with a goal template, 0 with a start one; negative: grow it into "
+                        "the target's coplanar surroundings)")
     p.add_argument("--goal-frames", type=int, default=None, metavar="N",
                    help=f"servo only: frames averaged into the goal image (as `run --goal-frames`; default {GOAL_FRAMES} with a goal "
                         "template)")

@@ -142,7 +142,9 @@ def add_run_parser(sub) -> None:
     p.add_argument("--roi-inset", type=int, default=None, metavar="PX",
                    help="cut the template this many pixels inside the target's outline, which renders differently "
                         "from view to view (default: 8 with a goal template, fewer for a target too small for it; 0 "
-                        "with a start template)")
+                        "with a start template). Negative, with a goal template: grow it that many pixels into the "
+                        "target's surroundings, which must lie in its plane (-90: the wall's neighbouring pictures, "
+                        "the 6-DOF loop's most precise setting, docs/results.md)")
     p.add_argument("--feature-filter", type=float, default=None, metavar="ALPHA",
                    help="α of the filter that blends the tracked corners with where the camera's own motion (the "
                         f"joints' forward kinematics) carries the last estimate, in [0, 1]; 0 = off (default "

@@ -87,7 +87,8 @@ def roi_from_corners(corners: np.ndarray) -> tuple[int, int, int, int]:
 
 
 def inset_roi(roi, px: int) -> tuple[int, int, int, int]:
-    """The ROI `px` pixels inside its edges on every side; InputError when that leaves less than MIN_ROI."""
+    """The ROI `px` pixels inside its edges on every side (negative: grown that much beyond them); InputError when
+    that leaves less than MIN_ROI."""
     x, y, w, h = roi
     if px == 0:  # nothing to take away: a box too small for a tracker is for the tracker's init to refuse
         return x, y, w, h
