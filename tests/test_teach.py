@@ -79,7 +79,8 @@ def test_inset_roi_and_loop_options_are_checked():
         inset_roi((10, 20, 100, 60), 20)
     with pytest.raises(ConfigError, match="template_from"):
         LoopConfig(template_from="middle")
-    for bad in (-1, 2.5, True):
+    assert inset_roi((100, 120, 100, 60), -30) == (70, 90, 160, 120)  # negative: grown beyond the edges
+    for bad in (-401, 2.5, True):
         with pytest.raises(ConfigError, match="roi_inset_px"):
             LoopConfig(roi_inset_px=bad)
     assert main(["bench", "track", "--template-from", "goal"]) == 2
@@ -139,6 +140,25 @@ def test_goal_template_loop_servoes_on_the_goal_images_template_seeded_in_the_fi
     assert all(r.mode == "align" and r.tracker_error_px < 0.5 for r in recs), [(r.mode, r.tracker_error_px) for r in recs]
     s = summarize_run(recs, cfg)
     assert (s["template_from"], s["roi_inset_px"]) == ("goal", 4)
+
+
+def test_a_negative_inset_grows_the_goal_template_into_the_targets_plane_and_is_refused_where_it_cannot():
+    sc = make_scenario("clear", mount="arm", start_offset=TILTED)  # 640×480: the target ~108×72 px at the goal
+    cfg = LoopConfig(steps=3, keep_frames=False, template_from="goal", roi_inset_px=-90)
+    loop = ServoLoop(sc, "hybrid", cfg, warp="homography")
+    _, corners = loop.goal_image()
+    box = roi_from_corners(corners)
+    roi = (box[0] - 90, box[1] - 90, box[2] + 180, box[3] + 180)  # the neighbouring pictures' edges, in the plane
+    recs = list(loop)
+    assert np.allclose(recs[0].desired, roi_corners(roi), atol=1e-6)  # s*: the grown box's corners
+    assert loop.tracker.aligner.template_full.shape == (roi[3], roi[2])
+    # the truth of a corner beyond the target is its place in the target's plane: the tracker meets it
+    assert all(r.mode == "align" and r.tracker_error_px < 0.5 for r in recs), [(r.mode, r.tracker_error_px) for r in recs]
+    assert summarize_run(recs, cfg)["roi_inset_px"] == -90
+    with pytest.raises(ConfigError, match="only a goal template"):  # a start view's surroundings are not the goal's
+        ServoLoop(sc, "hybrid", LoopConfig(steps=1, template_from="start", roi_inset_px=-10), warp="homography")
+    with pytest.raises(InputError, match="runs off the 640×480 goal image"):
+        list(ServoLoop(sc, "hybrid", LoopConfig(steps=1, keep_frames=False, roi_inset_px=-250), warp="homography"))
 
 
 def test_the_template_view_and_inset_default_to_the_goal_for_six_dof_tracking_only():
