@@ -511,7 +511,7 @@ class ServoLoop:
         roi = roi_from_corners(flag0)
         inset = self.default_inset(roi) if res.roi_inset_px is None else res.roi_inset_px
         roi = inset_roi(roi, inset)
-        height, width = template_frame.shape[:2]
+        width, height = r.width, r.height  # the goal image's size (a run that renders no frames has none in hand)
         if inset < 0 and (roi[0] < 0 or roi[1] < 0 or roi[0] + roi[2] > width or roi[1] + roi[3] > height):
             raise InputError(f"the template grown {-inset} px beyond the target's outline, {roi[2]}×{roi[3]} px at "
                              f"({roi[0]}, {roi[1]}), runs off the {width}×{height} goal image: grow it less (a "
