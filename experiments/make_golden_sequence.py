@@ -21,6 +21,7 @@ import numpy as np
 import torch
 
 from hvs_sim.bench.sequences import make_sequence
+from hvs_sim.outputs import settle, temporary_beside
 from hvs_sim.render.camera import transfer_points
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 from hvs_sim.tracking import make_tracker
@@ -66,13 +67,23 @@ def track_errors(frames: np.ndarray, roi, gt: np.ndarray) -> tuple[np.ndarray, l
     return np.array(err), modes
 
 
+def save(path: Path, **arrays) -> None:
+    """The envelope file written whole: under a temporary name, renamed into place when complete."""
+    tmp, done = temporary_beside(path), False
+    try:
+        np.savez_compressed(tmp, **arrays)
+        done = True
+    finally:
+        settle(tmp, path, keep=done)
+
+
 def remeasure(path: Path) -> None:
     """The envelope written again for a hybrid meant to behave differently, on the very frames of the committed video."""
     g = np.load(path)
     frames = decode(path.parent / str(g["video"]))
     err, modes = track_errors(frames, tuple(int(v) for v in g["roi"]), g["gt"])
     kept = {k: g[k] for k in g.files if k not in ("error", "modes")}
-    np.savez_compressed(path, **kept, error=err, modes=np.array(modes))
+    save(path, **kept, error=err, modes=np.array(modes))
     print(f"{path}: hybrid error median {np.median(err):.3f} px (was {np.median(g['error']):.3f}), max {err.max():.2f} "
           f"px (was {g['error'].max():.2f}), {int((err > 2).sum())} frames over 2 px (was {int((g['error'] > 2).sum())})")
 
@@ -102,8 +113,8 @@ def main() -> None:
     roi = (roi_full[0] - CROP[1].start, roi_full[1] - CROP[0].start, roi_full[2], roi_full[3])
     err, modes = track_errors(frames, roi, gt)
     occlusion = seq.occlusion[FIRST:FIRST + COUNT]
-    np.savez_compressed(args.out, video=video.name, roi=np.array(roi), gt=gt, occlusion=occlusion, error=err,
-                        modes=np.array(modes), source=f"{SCENARIO} hand-held seed {SEED}, frames {FIRST}-{FIRST + COUNT - 1}")
+    save(Path(args.out), video=video.name, roi=np.array(roi), gt=gt, occlusion=occlusion, error=err,
+         modes=np.array(modes), source=f"{SCENARIO} hand-held seed {SEED}, frames {FIRST}-{FIRST + COUNT - 1}")
     print(f"{video}: {len(frames)} frames, {video.stat().st_size / 1e6:.2f} MB; hybrid error median "
           f"{np.median(err):.3f} px, max {err.max():.2f} px, {int((err > 2).sum())} frames over 2 px; modes "
           f"{ {m: modes.count(m) for m in set(modes)} }; peak occlusion {occlusion.max():.2f}")

@@ -34,7 +34,7 @@ from scipy import ndimage
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from hvs_sim.bench.budget import WEAK, template_roi, weak_directions, weak_offset
+from hvs_sim.bench.budget import WEAK, template_roi, track_still, weak_directions, weak_offset
 from hvs_sim.control.ibvs import interaction_matrix
 from hvs_sim.errors import InputError
 from hvs_sim.geometry import offset_pose
@@ -73,11 +73,8 @@ class Setup:
         return np.array([1e3 * np.linalg.norm(v[:3]), math.degrees(np.linalg.norm(v[3:]))])
 
     def track(self, frame: np.ndarray, truth: np.ndarray) -> np.ndarray:
-        """The tracker's corners on one frame, seeded at the truth; twice, as a loop tracks a still camera."""
-        self.tracker.seed(perspective_transform(self.roi0, truth))
-        for _ in range(2):
-            corners = self.tracker.update(frame).corners
-        return corners
+        """The tracker's corners on one frame, seeded at the truth (budget.track_still)."""
+        return track_still(self.tracker, frame, self.roi0, truth).corners
 
     def exact(self, truth: np.ndarray) -> np.ndarray:
         """The goal image moved by the target plane's homography from the goal to this pose (cubic B-spline, each

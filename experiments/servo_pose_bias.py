@@ -32,7 +32,7 @@ import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from hvs_sim.bench.budget import WEAK, template_roi, weak_directions, weak_offset
+from hvs_sim.bench.budget import WEAK, template_roi, track_still, weak_directions, weak_offset
 from hvs_sim.errors import InputError
 from hvs_sim.geometry import offset_pose
 from hvs_sim.loopparts import GOAL_FRAMES
@@ -42,7 +42,6 @@ from hvs_sim.scene.scenarios import SUPERSAMPLE_CHOICES, CameraConfig, make_scen
 from hvs_sim.scene.world import Scene
 from hvs_sim.tracking import aligner, make_tracker
 from hvs_sim.tracking.frames import roi_corners
-from hvs_sim.tracking.warp import perspective_transform
 
 # name: (tracker, its settings, the intensity refinement's Gaussian size)
 VARIANTS: dict[str, tuple[str, dict, int | None]] = {
@@ -114,10 +113,7 @@ def main() -> None:
             poses.append(scene.pose_error().tolist())
         truth = renderer.transfer(c0, gt, roi0)
         for name, tracker in trackers.items():
-            tracker.seed(perspective_transform(roi0, truth))
-            for _ in range(2):  # the second from the first's answer, as the loop tracks a still camera
-                corners = tracker.update(frame).corners
-            e = corners - truth
+            e = track_still(tracker, frame, roi0, truth).corners - truth
             errors[name].append([float(e.ravel() @ U[:, k]) for k in range(WEAK)] +
                                 [float(np.linalg.norm(e, axis=1).max())])
         print(f"pose {i + 1}/{args.poses}", end="\r", flush=True)

@@ -38,6 +38,7 @@ from hvs_sim.geometry import offset_pose
 from hvs_sim.loop import GOAL_ROI_INSET_PX
 from hvs_sim.loopparts import GOAL_FRAMES
 from hvs_sim.tracking.frames import inset_roi, roi_corners, roi_from_corners
+from hvs_sim.tracking.warp import perspective_transform
 
 GREY = np.array([0.299, 0.587, 0.114])  # the trackers' grey (OpenCV's RGB→grey weights)
 FIGURE_STANDOFFS = (0.5, 0.65, 0.8, 1.0, 1.2)  # m: the figure's accuracy against standoff ...
@@ -205,12 +206,20 @@ def _goal_tracker(goal: np.ndarray, roi):
     return tracker
 
 
+def track_still(tracker, frame: np.ndarray, roi0: np.ndarray, truth: np.ndarray):
+    """The tracker's Track on one frame of a still camera, seeded at the template box's true corners `truth` (its
+    corners `roi0` in the template): twice, the second from the first's answer, as the loop tracks a still camera."""
+    tracker.seed(perspective_transform(roi0, truth))
+    for _ in range(2):
+        track = tracker.update(frame)
+    return track
+
+
 def measure(scenario, hold_frames: int = HOLD_FRAMES, near_poses: int = NEAR_POSES, seed: int = 0) -> Measured:
     """The tracker held at the goal through the scenario's camera, and on clean views around the goal."""
     from hvs_sim.render.renderer import Renderer
     from hvs_sim.scene.world import Scene
     from hvs_sim.tracking.base import Mode
-    from hvs_sim.tracking.warp import perspective_transform
 
     for name, value, least in (("hold_frames", hold_frames, 2), ("near_poses", near_poses, MIN_NEAR_POSES)):
         if isinstance(value, bool) or not isinstance(value, int) or value < least:
@@ -250,9 +259,7 @@ def measure(scenario, hold_frames: int = HOLD_FRAMES, near_poses: int = NEAR_POS
         with clean.posed(q):
             frame, gt = r.rgb(), r.ground_truth(occlusion=False).corners
         truth = r.transfer(c0, gt, roi0)
-        tracker.seed(perspective_transform(roi0, truth))
-        for _ in range(2):  # the second from the first's answer, as the loop tracks a still camera
-            track = tracker.update(frame)
+        track = track_still(tracker, frame, roi0, truth)
         unaligned += track.mode != Mode.ALIGN
         near.append((track.corners - truth).ravel() @ U)
     near = np.array(near) * mm
