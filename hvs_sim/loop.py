@@ -35,12 +35,14 @@ from hvs_sim.control.protocol import ControlInput, PolicyInput, scale_depths
 from hvs_sim.errors import ConfigError, HvsError, InputError, StateError, choice_error
 from hvs_sim.loopparts import (
     GOAL_FRAMES,
+    NEAR_GOAL_PX,
     TEMPLATE_VIEWS,
     Capture,
     Episode,
     Measured,
     ResolvedLoop,
     Stopwatch,
+    Template,
     frozen,
     lap,
 )
@@ -51,6 +53,7 @@ from hvs_sim.scene.scenarios import Scenario
 from hvs_sim.scene.world import Scene
 from hvs_sim.tracking import TRACKER_NAMES, Track, Tracker, make_tracker
 from hvs_sim.tracking.frames import MIN_ROI, inset_roi, roi_corners, roi_from_corners
+from hvs_sim.tracking.warp import apply as apply_warp
 from hvs_sim.tracking.warp import perspective_transform
 from hvs_sim.validate import check_flags, check_number
 
@@ -100,6 +103,13 @@ class LoopConfig:
     # Through `robot_cell` with the 15 cm target, −90 took the 6-DOF loop from 1–11 mm to 0.04–0.65 mm (docs/results.md,
     # the pose bound): the wider template pins the pose's weak directions
     roi_inset_px: int | None = None
+    # a second, grown goal template (a negative inset, as roi_inset_px) the loop switches to once the tracked corners
+    # are within near_goal_px of s* and the grown box is in view: the small template brings the camera near from
+    # afar (the grown box may lie out of a tilted start view, where its first alignment fails), the grown one pins
+    # the pose's weak directions at the goal. The tracker is re-seeded on it through the corners' homography, and s*,
+    # the law and the feature filter start again on its corners. None: one template throughout
+    near_goal_inset_px: int | None = None
+    near_goal_px: float | None = None  # None: NEAR_GOAL_PX with near_goal_inset_px (a number without it is refused)
     # frames of the still scene averaged into the goal image (Renderer.still_average; 1 = one frame). None:
     # GOAL_FRAMES with a goal template; a number with a start template is refused (it would do nothing)
     goal_frames: int | None = None
@@ -120,6 +130,17 @@ class LoopConfig:
             raise choice_error("template_from", self.template_from, TEMPLATE_VIEWS)
         if self.roi_inset_px is not None:
             check_number("roi_inset_px", self.roi_inset_px, -MAX_TEMPLATE_GROWTH_PX, integer=True)
+        if self.near_goal_inset_px is not None:
+            check_number("near_goal_inset_px", self.near_goal_inset_px, -MAX_TEMPLATE_GROWTH_PX, -1, integer=True)
+            if self.roi_inset_px is not None and self.roi_inset_px < 0:
+                raise ConfigError(f"near_goal_inset_px ({self.near_goal_inset_px}) switches to a grown template near "
+                                  f"the goal, but roi_inset_px ({self.roi_inset_px}) grows the first one already: give "
+                                  "one of them (or an roi_inset_px ≥ 0)")
+        if self.near_goal_px is not None:
+            check_number("near_goal_px", self.near_goal_px, 0, lo_open=True)
+            if self.near_goal_inset_px is None:
+                raise ConfigError(f"near_goal_px ({self.near_goal_px}) is when to switch to the near-goal template: "
+                                  "give near_goal_inset_px too, or leave near_goal_px out")
         if self.feature_filter is not None:
             check_number("feature_filter (alpha)", self.feature_filter, 0, 1)
         if self.goal_frames is not None:
@@ -335,6 +356,11 @@ class ServoLoop:
             raise ConfigError(f"roi_inset_px {inset} grows the template into the target's surroundings, which only a "
                               "goal template may take in: this run's template comes from its first frame (give "
                               "template_from='goal', or an inset ≥ 0)")
+        if config.near_goal_inset_px is not None and (self.tracker is None or template_from != "goal"):
+            why = (f"tracker {tracker!r} has no template" if self.tracker is None else
+                   "this run's template comes from its first frame (give template_from='goal')")
+            raise ConfigError(f"near_goal_inset_px ({config.near_goal_inset_px}) switches a tracker to a template grown "
+                              f"in the goal image near the goal, but {why}")
         return ResolvedLoop(warp, dofs, damping, alpha, template_from, goal_frames, inset)
 
     def controlled_pose_error(self, pose_error: np.ndarray) -> tuple[float, float]:
@@ -443,13 +469,16 @@ class ServoLoop:
         ep = self._step_zero(cap)
         for step in range(self.config.steps):
             timings = dict(cap.timings)
-            truth = self.renderer.transfer(ep.flag0, cap.gt.corners, ep.roi0)  # where the features truly are
             watch = Stopwatch()
+            if ep.grow_from is not None:
+                self._switch_to_near_goal(ep, step)
+            truth = self.renderer.transfer(ep.flag0, cap.gt.corners, ep.roi0)  # where the features truly are
             first = self._start_tracker(ep, truth) if step == 0 else None
             seen = self._track_step(truth, cap.frame, first)
             timings["track"] = watch.ms()
             with lap(timings, "control"):
                 seen, ctrl, cmd = self._control(ep, cap, seen, step)
+                self._near_goal_due(ep, seen)
             timings["control"] += cap.depths_ms
             with lap(timings, "physics"):
                 self.scene.advance(cmd.qdot)
@@ -467,8 +496,10 @@ class ServoLoop:
         cap = self._capture()
         ep = self._step_zero(cap)
         for step in range(self.config.steps):
-            truth = self.renderer.transfer(ep.flag0, cap.gt.corners, ep.roi0)
             watch = Stopwatch()
+            if ep.grow_from is not None:  # no track is in flight between steps
+                self._switch_to_near_goal(ep, step)
+            truth = self.renderer.transfer(ep.flag0, cap.gt.corners, ep.roi0)
             first = self._start_tracker(ep, truth) if step == 0 else None
             pending = pool.submit(self._track, cap.frame, first) if self.tracker is not None else None
             init_ms = watch.ms()
@@ -484,6 +515,7 @@ class ServoLoop:
             timings["track"] = init_ms + (seen.track.ms if seen.track is not None else 0.0)
             with lap(timings, "control"):
                 seen, ctrl, cmd = self._control(ep, cap, seen, step)  # at the next step's arm configuration
+                self._near_goal_due(ep, seen)
             timings["control"] += depths_ms
             yield self._record(step, cap, ep, seen, ctrl, cmd, timings, wall_ms=wall.lap())
             qdot_due, cap = cmd.qdot, nxt
@@ -508,17 +540,17 @@ class ServoLoop:
         # the template's image and the target's corners in it: this first frame, or the goal image
         template_frame, flag0 = (cap.frame, cap.gt.corners) if res.template_from == "start" else self.goal_image()
         goal = None if res.template_from == "start" else template_frame
-        roi = roi_from_corners(flag0)
-        inset = self.default_inset(roi) if res.roi_inset_px is None else res.roi_inset_px
-        roi = inset_roi(roi, inset)
-        width, height = r.width, r.height  # the goal image's size (a run that renders no frames has none in hand)
-        if inset < 0 and (roi[0] < 0 or roi[1] < 0 or roi[0] + roi[2] > width or roi[1] + roi[3] > height):
-            raise InputError(f"the template grown {-inset} px beyond the target's outline, {roi[2]}×{roi[3]} px at "
-                             f"({roi[0]}, {roi[1]}), runs off the {width}×{height} goal image: grow it less (a "
-                             "roi_inset_px nearer 0)")
+        outline = roi_from_corners(flag0)
+        inset = self.default_inset(outline) if res.roi_inset_px is None else res.roi_inset_px
+        roi = self._template_box(outline, inset, "roi_inset_px")
         roi0 = roi_corners(roi)
         desired = r.transfer(flag0, self.flag_desired, roi0)
         controller = self._controller(self._pinhole(desired), goal, roi)
+        near_goal = None
+        if self.config.near_goal_inset_px is not None:  # the grown box checked now: a run that cannot switch says so
+            grown = self._template_box(outline, self.config.near_goal_inset_px, "near_goal_inset_px")
+            near_goal = Template(grown, roi_corners(grown), self.config.near_goal_inset_px,
+                                 r.transfer(flag0, self.flag_desired, roi_corners(grown)))
         if self.policy is not None:
             try:
                 self.policy.reset(self._policy_input(cap.frame, cap.gt, goal, desired, 0))
@@ -527,7 +559,49 @@ class ServoLoop:
                     from exc
         feature_filter = (FeatureFilter(r.K, res.filter_alpha, self._pinhole(desired), self.desired_depth)
                           if res.filter_alpha > 0 else None)
-        return Episode(flag0, roi, roi0, inset, desired, template_frame, goal, controller, feature_filter)
+        return Episode(flag0, roi, roi0, inset, desired, template_frame, goal, controller, feature_filter, near_goal)
+
+    def _template_box(self, outline, inset: int, option: str) -> tuple[int, int, int, int]:
+        """The template's box: the target's outline box inset (grown, when negative); InputError when a grown box runs
+        off the goal image."""
+        roi = inset_roi(outline, inset)
+        width, height = self.renderer.width, self.renderer.height  # the goal image's (a run may render no frames)
+        if inset < 0 and (roi[0] < 0 or roi[1] < 0 or roi[0] + roi[2] > width or roi[1] + roi[3] > height):
+            raise InputError(f"the template grown {-inset} px beyond the target's outline, {roi[2]}×{roi[3]} px at "
+                             f"({roi[0]}, {roi[1]}), runs off the {width}×{height} goal image: grow it less (a "
+                             f"{option} nearer 0)")
+        return roi
+
+    def _near_goal_due(self, ep: Episode, seen: Measured) -> None:
+        """After a step's control: when the features (as control used them) are within near_goal_px of s* and the
+        grown box, carried by their homography, is in view, the switch to the grown template is due at the next
+        step (ep.grow_from: that homography, the tracker's seed)."""
+        if ep.near_goal is None or ep.grown_at is not None or seen.fault is not None or seen.mode != "align":
+            return
+        within = NEAR_GOAL_PX if self.config.near_goal_px is None else self.config.near_goal_px
+        if float(np.linalg.norm(seen.features - ep.desired, axis=1).mean()) > within:
+            return
+        A = perspective_transform(ep.roi0, seen.features)  # frame from goal image
+        grown = apply_warp(A, ep.near_goal.corners)
+        if corners_in_view(grown, self.scenario.camera, IN_VIEW_MARGIN_PX):
+            ep.grow_from = A
+
+    def _switch_to_near_goal(self, ep: Episode, step: int) -> None:
+        """The tracker re-initialised on the grown template and seeded where the small one's corners put it; s*, the
+        law and the feature filter start again on the grown box's corners."""
+        near, A = ep.near_goal, ep.grow_from
+        try:
+            self.tracker.init(ep.template_frame, near.roi)
+            self.tracker.seed(A)
+        except Exception as exc:  # any cause: the tracker has no template left to servo on
+            raise StateError(f"tracker {self.tracker_name!r} could not switch to the near-goal template (ROI "
+                             f"{near.roi}) at step {step}: {exc}") from exc
+        ep.roi, ep.roi0, ep.inset, ep.desired = near.roi, near.corners, near.inset, near.desired
+        ep.controller = self._controller(self._pinhole(near.desired), ep.goal, near.roi)
+        if ep.feature_filter is not None:
+            ep.feature_filter = FeatureFilter(self.renderer.K, self.resolved.filter_alpha, self._pinhole(near.desired),
+                                              self.desired_depth)
+        ep.grown_at, ep.grow_from = step, None
 
     def _start_tracker(self, ep: Episode, truth: np.ndarray) -> Track | None:
         """The tracker's init on the template: its own track of the first frame with a start template; with a goal

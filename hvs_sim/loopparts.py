@@ -23,6 +23,7 @@ TEMPLATE_VIEWS = ("start", "goal")
 # LoopConfig.goal_frames' default: frames averaged into the goal image (2 s of a 30 Hz camera held at the goal), so
 # that the template freezes little of the camera's noise (docs/tuning.md)
 GOAL_FRAMES = 64
+NEAR_GOAL_PX = 2.0  # LoopConfig.near_goal_px's default: the features this near s* switch to the grown template
 
 
 @dataclass(frozen=True)
@@ -54,9 +55,20 @@ class Capture:
     depths_ms: float  # the true depths (IBVSConfig.depth="true"): control's input, counted as control
 
 
+@dataclass(frozen=True)
+class Template:
+    """A template's box in the goal image and what follows from it (LoopConfig.near_goal_inset_px's grown one)."""
+
+    roi: tuple[int, int, int, int]  # (x, y, w, h)
+    corners: np.ndarray  # its corners: the points the features are
+    inset: int  # px the box lies inside the target's outline (negative: grown beyond it)
+    desired: np.ndarray  # s*: those corners at the reference pose, in the camera's image
+
+
 @dataclass
 class Episode:
-    """What step 0 fixes for the whole episode (ServoLoop._step_zero), and the one thing carried from step to step."""
+    """What step 0 fixes for the episode (ServoLoop._step_zero; the template's fields change once, at the switch to
+    near_goal), and what is carried from step to step."""
 
     flag0: np.ndarray  # the target's corners in the template's image
     roi: tuple[int, int, int, int]  # the template's box in that image (x, y, w, h), inset
@@ -67,7 +79,10 @@ class Episode:
     goal: np.ndarray | None  # the goal image (None with a start template)
     controller: object | None  # the servo law: a built-in or an outside one (None: a policy's episode)
     feature_filter: FeatureFilter | None  # None: off
+    near_goal: Template | None = None  # the grown template switched to near the goal (None: one template throughout)
     camera_prev: CameraPose | None = None  # the camera at the step before: the camera's own motion between frames
+    grow_from: np.ndarray | None = None  # the homography to seed the grown template at: the switch is due next step
+    grown_at: int | None = None  # the step the grown template took over
 
 
 @dataclass

@@ -10,6 +10,7 @@ import dataclasses
 import numpy as np
 
 from hvs_sim.errors import StateError
+from hvs_sim.loopparts import NEAR_GOAL_PX
 
 MODES = ("align", "predict", "lost", "fault")  # a record's mode, in the order its code (index) is plotted and stored
 
@@ -33,6 +34,7 @@ class RunStats:
         self.faults: set[str] = set()
         self.saturated = self.limit_blocked = self.out_of_view = self.filter_restarts = 0
         self.path_m = 0.0
+        self.switched_at: int | None = None  # the first step on another template than step 0's (near_goal)
         self.max_condition: float | None = None
         self.min_rank: int | None = None
         self.first = None  # StepRecord
@@ -56,6 +58,8 @@ class RunStats:
         self.filter_restarts += bool(r.filter_restarted)
         if self.last is not None:
             self.path_m += float(np.linalg.norm(r.camera.t - self.last.camera.t))
+            if self.switched_at is None and r.template != self.first.template:
+                self.switched_at = r.step
         if r.condition is not None:
             self.max_condition = max(self.max_condition or 0.0, r.condition)
         if r.rank is not None:
@@ -150,6 +154,10 @@ class RunStats:
             "pipeline": config.pipeline,
             "template_from": self.first.template[0],
             "roi_inset_px": self.first.template[1],
+            "near_goal": None if config.near_goal_inset_px is None else {
+                "inset_px": config.near_goal_inset_px, "within_px": config.near_goal_px or NEAR_GOAL_PX,
+                "switched_at_step": self.switched_at,
+                "note": "the step from which the grown template's corners were the features (null: never switched)"},
             "goal_frames": self.first.template[2],
             "feature_filter": self.first.feature_filter,
             "feature_filter_restarts": self.filter_restarts,

@@ -26,6 +26,7 @@ def _check_bench_options(args) -> None:
         return
     for flag, value in (("--episodes", args.episodes), ("--damping", args.damping), ("--arm", args.arm),
                         ("--template-from", args.template_from), ("--roi-inset", args.roi_inset),
+                        ("--near-goal-inset", args.near_goal_inset),
                         ("--goal-frames", args.goal_frames), ("--feature-filter", args.feature_filter),
                         ("--extra-steps", args.extra_steps)):
         if value is not None:
@@ -191,6 +192,7 @@ def _cmd_bench_sim(args) -> int:
         if args.extra_steps is not None and args.smoke:
             raise ConfigError("--extra-steps and --smoke disagree: a smoke run has its own 30 steps; give one")
         for opt, field in (("damping", "damping"), ("template_from", "template_from"), ("roi_inset", "roi_inset_px"),
+                           ("near_goal_inset", "near_goal_inset_px"),
                            ("goal_frames", "goal_frames"), ("feature_filter", "feature_filter"),
                            ("extra_steps", "extra_steps"), ("arm", "arm")):  # servo-only settings the user gave
             if getattr(args, opt) is not None:
@@ -266,6 +268,9 @@ def add_bench_parser(sub) -> None:
                    help="servo only: cut the template this many pixels inside the target's outline (as `run "
                         "--roi-inset`; default: 8 with a goal template, 0 with a start one; negative: grow it into "
                         "the target's coplanar surroundings)")
+    p.add_argument("--near-goal-inset", type=int, default=None, metavar="PX",
+                   help="servo only: switch each episode's tracker to a second goal template grown PX (negative) "
+                        "beyond the target's outline near the goal (as `run --near-goal-inset`)")
     p.add_argument("--goal-frames", type=int, default=None, metavar="N",
                    help=f"servo only: frames averaged into the goal image (as `run --goal-frames`; default {GOAL_FRAMES} with a goal "
                         "template)")

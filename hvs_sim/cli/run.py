@@ -55,6 +55,7 @@ def cmd_run(args) -> int:
                         keep_frames=bool(args.rrd or args.spawn or args.figures or args.mcap),
                         template_from=args.template_from,
                         roi_inset_px=args.roi_inset, goal_frames=args.goal_frames,
+                        near_goal_inset_px=args.near_goal_inset, near_goal_px=args.near_goal_px,
                         feature_filter=args.feature_filter)
     summary, _ = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,
                              tracker_settings=settings, figures=args.figures, mcap=args.mcap)
@@ -122,7 +123,7 @@ def add_run_parser(sub) -> None:
     p.add_argument("--steps", type=int, default=240, help="control steps at 30 Hz")
     from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
     from hvs_sim.control.ibvs import CONTROLLERS
-    from hvs_sim.loopparts import GOAL_FRAMES, TEMPLATE_VIEWS
+    from hvs_sim.loopparts import GOAL_FRAMES, NEAR_GOAL_PX, TEMPLATE_VIEWS
     from hvs_sim.tracking.warp import WARPS
 
     p.add_argument("--warp", default=None, choices=WARPS,
@@ -145,6 +146,13 @@ def add_run_parser(sub) -> None:
                         "with a start template). Negative, with a goal template: grow it that many pixels into the "
                         "target's surroundings, which must lie in its plane (-90: the wall's neighbouring pictures, "
                         "the 6-DOF loop's most precise setting, docs/results.md)")
+    p.add_argument("--near-goal-inset", type=int, default=None, metavar="PX",
+                   help="switch to a second goal template, grown PX (negative) beyond the target's outline, once the "
+                        "tracked corners are within --near-goal-px of the goal's: the default template's robustness "
+                        "from afar, the grown one's precision at the goal (-90 with the built-in wall, docs/results.md)")
+    p.add_argument("--near-goal-px", type=float, default=None, metavar="PX",
+                   help="mean corner distance to the goal's corners that switches to the --near-goal-inset template "
+                        f"(default {NEAR_GOAL_PX})")
     p.add_argument("--feature-filter", type=float, default=None, metavar="ALPHA",
                    help="α of the filter that blends the tracked corners with where the camera's own motion (the "
                         f"joints' forward kinematics) carries the last estimate, in [0, 1]; 0 = off (default "
