@@ -417,9 +417,11 @@ class Aligner:
 
         return huber(r1[both]) < RESIDUAL_GAIN * huber(r0[both])
 
-    def align(self, work: np.ndarray, A_work: np.ndarray) -> Alignment:
+    def align(self, work: np.ndarray, A_work: np.ndarray, estimate: np.ndarray | None = None) -> Alignment:
         """Feature LK (+ residual) from A_work; `A_work` of the result is None when the alignment is
-        rejected (a jump of θ or s, too few points in view, a scale or shift no camera makes)."""
+        rejected (a jump of θ or s, too few points in view, a scale or shift no camera makes). θ and s may
+        continue either the seed's or `estimate`'s (the current estimate, work px): a seed from the template
+        as taken (θ = 0, s = 1) otherwise refuses a target seen rolled by more than max_rotation_step."""
         out = self.lk(work, A_work)
         if out is None:
             return Alignment(None, None)
@@ -444,11 +446,15 @@ class Aligner:
             return Alignment(None, out, used)
         scale = matrix_to_pose(A_new, self.c_work)[3]
         moved = np.linalg.norm(apply(A_new, self.c_work[None]) - apply(A_work, self.c_work[None]))
-        _, _, d_theta, d_scale = matrix_to_pose(np.linalg.solve(A_work, A_new), self.c_work)
-        jump = abs(d_theta) > self.config.max_rotation_step or abs(d_scale - 1) > self.config.max_scale_step
+        jump = all(self._jumps(A_from, A_new) for A_from in (A_work, estimate) if A_from is not None)
         if not 0.5 < scale < 2.0 or moved > self.rho or res.valid < MIN_VALID or jump:
             return Alignment(None, out, used)
         return Alignment(A_new, out, used)
+
+    def _jumps(self, A_from: np.ndarray, A_new: np.ndarray) -> bool:
+        """Whether A_new's rotation or scale differs from A_from's by more than a frame's step allows."""
+        _, _, d_theta, d_scale = matrix_to_pose(np.linalg.solve(A_from, A_new), self.c_work)
+        return abs(d_theta) > self.config.max_rotation_step or abs(d_scale - 1) > self.config.max_scale_step
 
     def refine_intensity(self, A_work: np.ndarray) -> np.ndarray | None:
         """The homography from A_work refined on the full-resolution grey template, with the exposure's gain

@@ -300,11 +300,13 @@ class HybridTracker(Tracker):
         patch, inside = aligned_patch(near, translate(A_seed, -offset), al.t_origin, (al.th, al.tw))
         return self.colour_reference(patch, inside)
 
-    def _verified(self, A: np.ndarray, m) -> bool:
+    def _verified(self, A: np.ndarray, m, work: np.ndarray | None = None) -> bool:
         """Whether an alignment may move the estimate there (HybridConfig.verify_reacquisition). A static target's
         far jump from where the surroundings put it must be unique and seen on several frames; a moving target's
         far jump from where its own motion puts it (the predictor) must be unique: a look-alike on repetitive
-        texture is no reason to leave the track."""
+        texture is no reason to leave the track. A static target's alignment far from the last estimate that the
+        surroundings' own motion in `work` carries it to is no jump: a camera that moves faster than reacquire_px a
+        frame (a servo's first steps: 10 px a frame) is followed, not refused until it is lost."""
         c, st = self.hconfig, self.state
         if not c.verify_reacquisition:
             return True
@@ -315,7 +317,7 @@ class HybridTracker(Tracker):
             return miss <= c.reacquire_px + c.background_gate_px * st.predict_run or unique
         offset = matrix_to_pose(A, st.center0)[:2] - matrix_to_pose(st.A, st.center0)[:2]
         allowed = c.reacquire_px + c.background_gate_px * st.predict_run + c.reacquire_drift_px * st.since_aligned
-        if np.linalg.norm(offset) <= allowed:
+        if np.linalg.norm(offset) <= allowed or self._surroundings_agree(A, work):
             st.jump_seen(None, 0.0)
             return True
         if not unique:
@@ -326,6 +328,16 @@ class HybridTracker(Tracker):
         if c.surroundings_veto_frames and held and seen < c.surroundings_veto_frames:
             return False  # the surroundings, measured since the alignment, put the target elsewhere
         return seen >= c.reacquire_frames
+
+    def _surroundings_agree(self, A: np.ndarray, work: np.ndarray | None) -> bool:
+        """Whether the surroundings' motion since the last measured frame puts the target within reacquire_px of A
+        (SceneMotionSource.peek; False without the surroundings, or where they cannot be measured)."""
+        if work is None or self.scene_motion is None or not self.state.scene_held:
+            return False
+        B = self.scene_motion.peek(work, self.state)
+        center0 = self.state.center0
+        return B is not None and bool(np.linalg.norm(matrix_to_pose(A, center0)[:2] - matrix_to_pose(B, center0)[:2])
+                                      <= self.hconfig.reacquire_px)
 
     def _judge_motion(self, work: np.ndarray, A: np.ndarray) -> None:
         """`auto`: add this aligned frame's evidence (where the aligned target is, against where the surroundings'
@@ -372,14 +384,14 @@ class HybridTracker(Tracker):
         gate = self.hconfig.occlusion_gate
         confident = m.score > 0 and (m.score >= self.config.match_threshold or (self.hconfig.continuity and is_current))
         if confident and (occ < gate or self.hconfig.gate_after_alignment):
-            A_new = al.align(work, A_seed).A_work
+            A_new = al.align(work, A_seed, None if is_current else al.to_work(st.A)).A_work
             occ_aligned = occ
             if A_new is not None and occ >= gate:  # gated again where the target was aligned (gate_after_alignment)
                 grey = None if self.colour_reference is not None else al.occlusion(work, A_new)
                 occ_aligned = self._occlusion_at(frame, A_new, grey)
                 if occ_aligned >= gate:
                     A_new = None
-            if A_new is not None and self._verified(al.to_full(A_new), m):
+            if A_new is not None and self._verified(al.to_full(A_new), m, work):
                 if self.target_motion is None:
                     self._judge_motion(work, al.to_full(A_new))
                 st.aligned(work, al.to_full(A_new), self.sources)

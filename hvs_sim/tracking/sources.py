@@ -136,6 +136,19 @@ class SceneMotionSource:
         al = self.aligner
         return al.S_inv @ M @ al.S @ A_key  # (keyframe → this frame, full-res) ∘ keyframe warp
 
+    def peek(self, work, state: HybridState) -> np.ndarray | None:
+        """Where the surroundings' motion puts the target in `work` (full-res warp), as `measure` would, but measured
+        in one hop from the chain's last good frame and leaving the chain as it was: for a check on a frame that may
+        still be aligned (HybridTracker._verified). None when the surroundings cannot be measured."""
+        key_work, A_key = self.key
+        k, src, M_src = self.motion.chain[-1] if self.motion.active else (0, key_work, np.eye(3))
+        hidden = apply(self.aligner.S @ state.A, state.corners0)
+        measured = self.motion.step(src, work, max(self.motion.frame + 1 - k, 1), hidden)
+        if measured is None:
+            return None
+        al = self.aligner
+        return al.S_inv @ measured[0] @ M_src @ al.S @ A_key
+
     def propose(self, work, state):
         A = self.measure(work, state)
         if A is None:
