@@ -120,3 +120,23 @@ def test_budget_measures_the_tracker_and_runs_the_loop_on_a_clean_camera(tmp_pat
     assert len(row["closed_loop"]) == 1 and row["closed_loop"][0]["seed"] == b.EPISODE_SEED0
     assert 0 < row["closed_loop_median_mm"] < 10  # converged: the benchmark's bound
     assert 0 < row["predicted_median_mm"] < 10 and row["measured"]["hold_frames"] == b.HOLD_FRAMES
+
+
+def test_budget_bounds_the_near_goal_template_and_refuses_one_that_runs_off_the_image(tmp_path, capsys):
+    """`--near-goal-inset`: the bound on the grown template the loop tracks at the goal, far tighter than on the
+    default one (its pixels pin the weak directions); a growth that leaves the image is a clear error."""
+    out = tmp_path / "b"
+    assert main(["budget", "--camera", "robot_cell", "--bound-only", "--out", str(tmp_path / "a")]) == 0
+    small = json.loads((tmp_path / "a" / "budget.json").read_text())["rows"][0]
+    assert main(["budget", "--camera", "robot_cell", "--bound-only", "--near-goal-inset", "-90", "--out", str(out)]) == 0
+    assert "grown 90 px" in capsys.readouterr().out
+    data = json.loads((out / "budget.json").read_text())
+    grown = data["rows"][0]
+    assert data["near_goal_inset_px"] == -90 and grown["template_inset_px"] == -90 and small["template_inset_px"] == 8
+    assert grown["template_px"][0] == small["template_px"][0] + 196  # 8 px inside the outline → 90 px beyond it
+    assert grown["pixels"] > 10 * small["pixels"]
+    assert 0 < grown["filtered_mm"] < 0.2 * small["filtered_mm"]
+    assert main(["budget", "--bound-only", "--near-goal-inset", "-300", "--out", str(tmp_path / "c")]) == 2
+    assert "runs off the 640×480 image" in capsys.readouterr().err
+    assert main(["budget", "--bound-only", "--near-goal-inset", "5", "--out", str(tmp_path / "d")]) == 2
+    assert "near_goal_inset_px" in capsys.readouterr().err

@@ -35,10 +35,11 @@ from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
 from hvs_sim.control.ibvs import interaction_matrix
 from hvs_sim.errors import ConfigError, InputError
 from hvs_sim.geometry import offset_pose
-from hvs_sim.loop import GOAL_ROI_INSET_PX
+from hvs_sim.loop import GOAL_ROI_INSET_PX, MAX_TEMPLATE_GROWTH_PX
 from hvs_sim.loopparts import GOAL_FRAMES
 from hvs_sim.tracking.frames import inset_roi, roi_corners, roi_from_corners
 from hvs_sim.tracking.warp import perspective_transform
+from hvs_sim.validate import check_number
 
 GREY = np.array([0.299, 0.587, 0.114])  # the trackers' grey (OpenCV's RGB→grey weights)
 FIGURE_STANDOFFS = (0.5, 0.65, 0.8, 1.0, 1.2)  # m: the figure's accuracy against standoff ...
@@ -62,8 +63,9 @@ def filter_frames(alpha: float = FEATURE_FILTER_ALPHA) -> float:
     return (2.0 - alpha) / alpha
 
 
-def goal_view(scenario):
-    """(clean frame uint8, its per-pixel grey variance, K, template ROI) of the camera held at the reference pose."""
+def goal_view(scenario, inset: int = GOAL_ROI_INSET_PX):
+    """(clean frame uint8, its per-pixel grey variance, K, template ROI) of the camera held at the reference pose; the
+    template `inset` px inside the target's outline (negative: grown beyond it, LoopConfig.near_goal_inset_px)."""
     from hvs_sim.camera_model import encode
     from hvs_sim.render.renderer import Renderer
     from hvs_sim.scene.world import Scene
@@ -78,17 +80,26 @@ def goal_view(scenario):
     clean = encode(linear * np.float32(gain))
     var = output_variance(model, linear, gain) + jpeg_variance(clean, model.jpeg_quality)
     grey_var = (var * GREY ** 2).sum(axis=2)
-    return clean, grey_var, r.K, template_roi(corners, scenario.standoff)
+    return clean, grey_var, r.K, template_roi(corners, scenario.standoff, inset, (r.width, r.height))
 
 
-def template_roi(corners: np.ndarray, standoff: float) -> tuple[int, int, int, int]:
-    """The template the loop tracks: the target's outline inset by GOAL_ROI_INSET_PX; a clear error when that is too
-    small to track."""
+def template_roi(corners: np.ndarray, standoff: float, inset: int = GOAL_ROI_INSET_PX,
+                 image_size: tuple[int, int] | None = None) -> tuple[int, int, int, int]:
+    """The template the loop tracks: the target's outline inset by `inset` px (GOAL_ROI_INSET_PX, the loop's; negative:
+    grown beyond it, which must stay inside the image of `image_size` (w, h)); a clear error when that is too small to
+    track or runs off the image."""
     try:
-        return inset_roi(roi_from_corners(corners), GOAL_ROI_INSET_PX)
+        roi = inset_roi(roi_from_corners(corners), inset)
     except InputError:
         raise ConfigError(f"the target is too small in the image at {standoff} m to be tracked (its template "
                           f"would be under the trackers' minimum); give a larger target or a shorter standoff") from None
+    if inset < 0 and image_size is not None:
+        w, h = image_size
+        if roi[0] < 0 or roi[1] < 0 or roi[0] + roi[2] > w or roi[1] + roi[3] > h:
+            raise ConfigError(f"the template grown {-inset} px beyond the target's outline ({roi[2]}×{roi[3]} px) runs "
+                              f"off the {w}×{h} image at {standoff} m: grow it less, or give a smaller target or a "
+                              "longer standoff")
+    return roi
 
 
 def weak_directions(K: np.ndarray, corners_px: np.ndarray, depth: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -133,6 +144,9 @@ class Budget:
     measured: Measured | None = None  # the loop's tracker with this camera (measure), when asked for
     predicted_mm: float | None = None  # predict(measured)
     closed_loop: tuple[dict, ...] = ()  # closed_loop's episodes
+    # px the template lies inside the target's outline: the loop's GOAL_ROI_INSET_PX, or negative, the near-goal
+    # template grown beyond it (LoopConfig.near_goal_inset_px), which the loop tracks at the goal
+    template_inset_px: int = GOAL_ROI_INSET_PX
 
     @property
     def closed_loop_median_mm(self) -> float | None:
@@ -141,6 +155,7 @@ class Budget:
     def row(self) -> dict:
         return {"camera": self.camera, "target": self.target, "target_width_m": self.target_width_m,
                 "standoff_m": self.standoff_m, "template_px": list(self.template_px),
+                "template_inset_px": self.template_inset_px,
                 "noise_levels": self.noise_levels, "pixels": self.one_frame.pixels,
                 "one_frame_mm": self.one_frame.translation_mm, "one_frame_deg": self.one_frame.rotation_deg,
                 "filtered_mm": self.filtered.translation_mm, "filtered_deg": self.filtered.rotation_deg,
@@ -162,12 +177,17 @@ def budget_scenario(camera: str, standoff: float, supersample: int = 1, **scene)
                          standoff=standoff, **scene)
 
 
-def budget(camera: str = "phone_handheld", standoff: float = 0.8, **scene) -> Budget:
-    """The bound for a camera preset and a target (make_scenario's target and arm settings) at a standoff; `estimate`
-    adds what the loop reaches."""
+def budget(camera: str = "phone_handheld", standoff: float = 0.8, near_goal_inset_px: int | None = None,
+           **scene) -> Budget:
+    """The bound for a camera preset and a target (make_scenario's target and arm settings) at a standoff, on the
+    template the loop tracks at the goal: the default one, or with `near_goal_inset_px` (negative) the grown one the
+    loop switches to there; `estimate` adds what the loop reaches."""
     sensor = sensor_preset(camera)
+    if near_goal_inset_px is not None:
+        check_number("near_goal_inset_px", near_goal_inset_px, -MAX_TEMPLATE_GROWTH_PX, -1, integer=True)
+    inset = GOAL_ROI_INSET_PX if near_goal_inset_px is None else near_goal_inset_px
     scen = budget_scenario(camera, standoff, **scene)
-    clean, grey_var, K, roi = goal_view(scen)
+    clean, grey_var, K, roi = goal_view(scen, inset)
     x0, y0, w, h = roi
     patch = grey_var[y0:y0 + h, x0:x0 + w]
     if not np.isfinite(patch).any():
@@ -175,7 +195,8 @@ def budget(camera: str = "phone_handheld", standoff: float = 0.8, **scene) -> Bu
     one = view_bound(clean, grey_var, K, roi, standoff)
     n = filter_frames()
     return Budget(sensor.name, scen.target_label, scen.target_width, standoff, (w, h),
-                  float(np.sqrt(np.median(patch[np.isfinite(patch)]))), one, one.scaled(n), one.scaled(GOAL_FRAMES), n)
+                  float(np.sqrt(np.median(patch[np.isfinite(patch)]))), one, one.scaled(n), one.scaled(GOAL_FRAMES), n,
+                  template_inset_px=inset)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -215,8 +236,10 @@ def track_still(tracker, frame: np.ndarray, roi0: np.ndarray, truth: np.ndarray)
     return track
 
 
-def measure(scenario, hold_frames: int = HOLD_FRAMES, near_poses: int = NEAR_POSES, seed: int = 0) -> Measured:
-    """The tracker held at the goal through the scenario's camera, and on clean views around the goal."""
+def measure(scenario, hold_frames: int = HOLD_FRAMES, near_poses: int = NEAR_POSES, seed: int = 0,
+            inset: int = GOAL_ROI_INSET_PX) -> Measured:
+    """The tracker held at the goal through the scenario's camera, and on clean views around the goal, on the template
+    `inset` px inside the target's outline (template_roi)."""
     from hvs_sim.render.renderer import Renderer
     from hvs_sim.scene.world import Scene
     from hvs_sim.tracking.base import Mode
@@ -229,7 +252,7 @@ def measure(scenario, hold_frames: int = HOLD_FRAMES, near_poses: int = NEAR_POS
     with scene.posed(q0):  # the goal image as the loop takes it; then time runs with the arm held there
         teacher = Renderer(scene, people=False)
         goal, c0 = teacher.still_average(GOAL_FRAMES), teacher.ground_truth(occlusion=False).corners
-        roi = template_roi(c0, scenario.standoff)
+        roi = template_roi(c0, scenario.standoff, inset, (teacher.width, teacher.height))
         roi0 = roi_corners(roi)
         U, Vt, mm = weak_directions(teacher.K, roi0, scenario.standoff)
         camera = Renderer(scene, people=False)
@@ -287,9 +310,10 @@ def predict(m: Measured, frames: float) -> float | None:
 
 
 def closed_loop(camera: str, standoff: float, episodes: int, progress=None, seed0: int = EPISODE_SEED0,
-                supersample: int = 1, **scene) -> list[dict]:
+                supersample: int = 1, near_goal_inset_px: int | None = None, **scene) -> list[dict]:
     """`episodes` servo runs of the loop's tracker on six DOF from the servo benchmark's `clear` start poses (seeds
-    seed0…), each as long as the benchmark's; their final pose errors. `progress(k)` after each."""
+    seed0…), each as long as the benchmark's (with the near-goal template when `near_goal_inset_px` is given); their
+    final pose errors. `progress(k)` after each."""
     from hvs_sim.bench.servo import EXTRA_STEPS, episode_scenario
     from hvs_sim.loop import LoopConfig
     from hvs_sim.runner import run_episode
@@ -303,7 +327,7 @@ def closed_loop(camera: str, standoff: float, episodes: int, progress=None, seed
         scen = episode_scenario("clear", seed, camera=CameraConfig(sensor=sensor_preset(camera), supersample=supersample),
                                 standoff=standoff, **scene)
         summary, _ = run_episode(scen, BUDGET_TRACKER, LoopConfig(steps=scen.n_frames + EXTRA_STEPS, keep_frames=False,
-                                                                  evaluate=False),
+                                                                  evaluate=False, near_goal_inset_px=near_goal_inset_px),
                                  progress=False, tracker_settings={"warp": BUDGET_WARP})
         runs.append({"seed": seed, "final_pose_error_mm": summary["final_pose_error_mm"],
                      "final_pose_error_deg": summary["final_pose_error_deg"], "held_to_end": summary["held_to_end"]})
@@ -314,8 +338,9 @@ def closed_loop(camera: str, standoff: float, episodes: int, progress=None, seed
 
 def estimate(b: Budget, episodes: int, progress=None, **scene) -> Budget:
     """`b` with the tracker measured, the prediction, and `episodes` closed-loop runs (0: none)."""
-    m = measure(budget_scenario(b.camera, b.standoff_m, **scene))
-    runs = closed_loop(b.camera, b.standoff_m, episodes, progress, **scene)
+    m = measure(budget_scenario(b.camera, b.standoff_m, **scene), inset=b.template_inset_px)
+    near_goal = b.template_inset_px if b.template_inset_px < 0 else None
+    runs = closed_loop(b.camera, b.standoff_m, episodes, progress, near_goal_inset_px=near_goal, **scene)
     return dataclasses.replace(b, measured=m, predicted_mm=predict(m, b.filter_frames), closed_loop=tuple(runs))
 
 
@@ -354,8 +379,10 @@ def table(rows: list[Budget]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def figure(camera: str, path, **scene) -> dict:
-    """Accuracy (filtered bound, mm) against standoff for FIGURE_WIDTHS target widths; returns the numbers."""
+def figure(camera: str, path, near_goal_inset_px: int | None = None, **scene) -> dict:
+    """Accuracy (filtered bound, mm) against standoff for FIGURE_WIDTHS target widths, on the template `budget` takes
+    with `near_goal_inset_px`; returns the numbers (a point where the template is too small or runs off the image is
+    left out)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -366,7 +393,8 @@ def figure(camera: str, path, **scene) -> dict:
         pts = []
         for z in FIGURE_STANDOFFS:
             try:
-                pts.append((z, budget(camera, z, target_width=width, **scene).filtered.translation_mm))
+                pts.append((z, budget(camera, z, near_goal_inset_px, target_width=width, **scene)
+                            .filtered.translation_mm))
             except ConfigError:  # too small to track there: no point
                 continue
         curves[width] = pts
@@ -375,7 +403,8 @@ def figure(camera: str, path, **scene) -> dict:
         if pts:
             ax.plot(*zip(*pts, strict=True), marker="o", label=f"target {100 * width:.0f} cm wide")
     ax.set(yscale="log", xlabel="standoff (m)", ylabel="pose bound, translation 1-σ (mm)",
-           title=f"{camera}: Cramér–Rao bound after the feature filter")
+           title=f"{camera}: Cramér–Rao bound after the feature filter"
+                 + ("" if near_goal_inset_px is None else f"\n(template grown {-near_goal_inset_px} px)"))
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()
     fig.tight_layout()
