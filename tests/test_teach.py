@@ -161,6 +161,50 @@ def test_a_negative_inset_grows_the_goal_template_into_the_targets_plane_and_is_
         list(ServoLoop(sc, "hybrid", LoopConfig(steps=1, keep_frames=False, roi_inset_px=-250), warp="homography"))
 
 
+@pytest.mark.parametrize("pipeline", [False, True])
+def test_the_loop_switches_to_the_grown_template_near_the_goal(pipeline):
+    # 2 mm off the goal: the default template's corners are within near_goal_px of s* at step 0, so the grown one
+    # takes over at step 1, seeded where the small one's corners put it
+    sc = make_scenario("clear", mount="arm", start_offset=(0.002, 0.001, 0.0, 0.0, 0.0, 0.0))
+    cfg = LoopConfig(steps=4, keep_frames=False, near_goal_inset_px=-90, pipeline=pipeline)
+    loop = ServoLoop(sc, "hybrid", cfg, warp="homography")
+    _, corners = loop.goal_image()
+    box = roi_from_corners(corners)
+    small, grown = inset_roi(box, GOAL_ROI_INSET_PX), inset_roi(box, -90)
+    recs = list(loop)
+    assert [r.template[1] for r in recs] == [GOAL_ROI_INSET_PX, -90, -90, -90]
+    assert np.allclose(recs[0].desired, roi_corners(small), atol=1e-6)
+    assert all(np.allclose(r.desired, roi_corners(grown), atol=1e-6) for r in recs[1:])  # s*: the grown box's
+    assert loop.tracker.aligner.template_full.shape == (grown[3], grown[2])
+    # the seed from the small template's corners is good enough for the grown one to align from at once
+    assert all(r.mode == "align" and r.tracker_error_px < 0.5 for r in recs), [(r.mode, r.tracker_error_px) for r in recs]
+    s = summarize_run(recs, cfg)
+    assert s["roi_inset_px"] == GOAL_ROI_INSET_PX and s["near_goal"]["switched_at_step"] == 1
+    assert s["near_goal"]["inset_px"] == -90
+
+
+def test_the_near_goal_template_is_refused_where_it_cannot_apply():
+    for bad in (0, 5, -401, 2.5):
+        with pytest.raises(ConfigError, match="near_goal_inset_px"):
+            LoopConfig(near_goal_inset_px=bad)
+    with pytest.raises(ConfigError, match="grows the first one already"):
+        LoopConfig(near_goal_inset_px=-90, roi_inset_px=-10)
+    with pytest.raises(ConfigError, match="give near_goal_inset_px too"):
+        LoopConfig(near_goal_px=3.0)
+    with pytest.raises(ConfigError, match="near_goal_px"):
+        LoopConfig(near_goal_inset_px=-90, near_goal_px=0.0)
+    sc = make_scenario("clear", mount="arm", start_offset=TILTED)
+    with pytest.raises(ConfigError, match="comes from its first frame"):
+        ServoLoop(sc, "hybrid", LoopConfig(steps=1, template_from="start", near_goal_inset_px=-90), warp="homography")
+    with pytest.raises(ConfigError, match="'ground_truth' has no template"):
+        ServoLoop(sc, "ground_truth", LoopConfig(steps=1, near_goal_inset_px=-90))
+    with pytest.raises(InputError, match="near_goal_inset_px nearer 0"):  # checked at step 0, not at the switch
+        list(ServoLoop(sc, "hybrid", LoopConfig(steps=1, keep_frames=False, near_goal_inset_px=-250),
+                       warp="homography"))
+    assert main(["bench", "track", "--near-goal-inset", "-90"]) == 2
+    assert main(["run", "--near-goal-px", "3", "--steps", "1"]) == 2
+
+
 def test_the_template_view_and_inset_default_to_the_goal_for_six_dof_tracking_only():
     sc = make_scenario("clear", mount="arm", camera=SMALL, start_offset=TILTED)
     cfg = LoopConfig(steps=1, keep_frames=False)
