@@ -5,6 +5,10 @@ error of `--episodes` further closed-loop episodes from start poses the budget n
 is within ±30 % when prediction / held-out median lies in [0.7, 1.3].
 
     python experiments/validate_budget.py [--episodes 8] [--workers 2] [--out experiments/results/budget_validation]
+                                          [--cameras ...] [--widths ...] [--near-goal-inset -90]
+
+With --near-goal-inset the budget, its episodes and the held-out episodes all use the loop's near-goal template
+(`LoopConfig.near_goal_inset_px`).
 """
 
 from __future__ import annotations
@@ -35,7 +39,7 @@ def fmt_mm(mm: float | None) -> str:
     return "none" if mm is None else f"{mm:.2f}"
 
 
-def one(camera: str, width: float, episodes: int) -> dict:
+def one(camera: str, width: float, episodes: int, near_goal: int | None = None) -> dict:
     import torch
 
     from hvs_sim.bench import budget as b
@@ -43,8 +47,9 @@ def one(camera: str, width: float, episodes: int) -> dict:
 
     torch.set_num_threads(1)
     t0 = time.perf_counter()
-    est = b.estimate(b.budget(camera, STANDOFF, target_width=width), BUDGET_EPISODES, target_width=width)
-    held = b.closed_loop(camera, STANDOFF, episodes, seed0=HELD_OUT_SEED0, target_width=width)
+    est = b.estimate(b.budget(camera, STANDOFF, near_goal, target_width=width), BUDGET_EPISODES, target_width=width)
+    held = b.closed_loop(camera, STANDOFF, episodes, seed0=HELD_OUT_SEED0, near_goal_inset_px=near_goal,
+                         target_width=width)
     median = float(np.median([r["final_pose_error_mm"] for r in held]))
     return {"camera": camera, "target_width_m": width, "budget": est.row(), "held_out": held,
             "held_out_median_mm": median, "model_ratio": None if est.predicted_mm is None else est.predicted_mm / median,
@@ -56,15 +61,19 @@ def main() -> None:
     ap.add_argument("--episodes", type=int, default=8)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", default="experiments/results/budget_validation")
+    ap.add_argument("--cameras", nargs="+", default=list(CAMERAS), choices=CAMERAS)
+    ap.add_argument("--widths", nargs="+", type=float, default=list(WIDTHS))
+    ap.add_argument("--near-goal-inset", type=int, default=None, metavar="PX",
+                    help="the loop's near-goal template, grown PX (negative) beyond the target's outline")
     args = ap.parse_args()
     if args.episodes < 1 or args.workers < 1:
         raise InputError("--episodes and --workers must be at least 1")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    jobs = [(c, w) for c in CAMERAS for w in WIDTHS]
+    jobs = [(c, w) for c in args.cameras for w in args.widths]
     rows, t0 = [], time.perf_counter()
     with ProcessPoolExecutor(args.workers, mp_context=mp.get_context("spawn")) as pool:
-        futures = [pool.submit(one, c, w, args.episodes) for c, w in jobs]
+        futures = [pool.submit(one, c, w, args.episodes, args.near_goal_inset) for c, w in jobs]
         for f in as_completed(futures):
             r = f.result()
             rows.append(r)
@@ -87,6 +96,7 @@ def main() -> None:
     text = "\n".join(lines) + "\n"
     write_atomic(out / "validation.md", text)
     write_atomic(out / "validation.json", json.dumps({"episodes": args.episodes, "standoff_m": STANDOFF,
+                                                      "near_goal_inset_px": args.near_goal_inset,
                                                       "held_out_seed0": HELD_OUT_SEED0, "tolerance": TOLERANCE,
                                                       "wall_s": time.perf_counter() - t0, "rows": rows}, indent=1))
     print(text, end="")
