@@ -110,6 +110,10 @@ class LoopConfig:
     # the law and the feature filter start again on its corners. None: one template throughout
     near_goal_inset_px: int | None = None
     near_goal_px: float | None = None  # None: NEAR_GOAL_PX with near_goal_inset_px (a number without it is refused)
+    # the working scale (DeepLKConfig.scale) of the tracker on the near-goal template: a built-in tracker is built a
+    # second time at this scale for it, as its VGG features cost what the template's area does (the intensity
+    # refinement stays at full resolution). None: the one tracker at its own scale
+    near_goal_scale: float | None = None
     # frames of the still scene averaged into the goal image (Renderer.still_average; 1 = one frame). None:
     # GOAL_FRAMES with a goal template; a number with a start template is refused (it would do nothing)
     goal_frames: int | None = None
@@ -136,6 +140,11 @@ class LoopConfig:
                 raise ConfigError(f"near_goal_inset_px ({self.near_goal_inset_px}) switches to a grown template near "
                                   f"the goal, but roi_inset_px ({self.roi_inset_px}) grows the first one already: give "
                                   "one of them (or an roi_inset_px ≥ 0)")
+        if self.near_goal_scale is not None:
+            check_number("near_goal_scale", self.near_goal_scale, 0, 1, lo_open=True)
+            if self.near_goal_inset_px is None:
+                raise ConfigError(f"near_goal_scale ({self.near_goal_scale}) is the working scale on the near-goal "
+                                  "template: give near_goal_inset_px too, or leave near_goal_scale out")
         if self.near_goal_px is not None:
             check_number("near_goal_px", self.near_goal_px, 0, lo_open=True)
             if self.near_goal_inset_px is None:
@@ -303,6 +312,12 @@ class ServoLoop:
         self.desired_depth = float(scenario.standoff)
         check_start_in_view(self.scene, self.renderer)
         self.resolved = self._resolve(tracker, config)
+        self.near_goal_tracker = None  # the tracker on the near-goal template, when it is another (near_goal_scale)
+        if config.near_goal_scale is not None:
+            if tracker not in TRACKER_NAMES:
+                raise ConfigError(f"near_goal_scale builds a built-in tracker again at another working scale; "
+                                  f"{tracker!r} is not one of {', '.join(TRACKER_NAMES)}: leave near_goal_scale out")
+            self.near_goal_tracker = make_tracker(tracker, **{**tracker_config, "scale": config.near_goal_scale})
         self.ibvs_config = dataclasses.replace(config.ibvs, damping=self.resolved.damping)
         # the camera's frames are rendered only when something reads them: a tracker, a law on the images (or an
         # outside one), a policy, or the records (the recording, the figures); the oracle's features and the
@@ -587,15 +602,17 @@ class ServoLoop:
             ep.grow_from = A
 
     def _switch_to_near_goal(self, ep: Episode, step: int) -> None:
-        """The tracker re-initialised on the grown template and seeded where the small one's corners put it; s*, the
-        law and the feature filter start again on the grown box's corners."""
+        """The tracker (or the near-goal one, near_goal_scale) initialised on the grown template and seeded where the
+        small one's corners put it; s*, the law and the feature filter start again on the grown box's corners."""
         near, A = ep.near_goal, ep.grow_from
+        tracker = self.near_goal_tracker or self.tracker
         try:
-            self.tracker.init(ep.template_frame, near.roi)
-            self.tracker.seed(A)
+            tracker.init(ep.template_frame, near.roi)
+            tracker.seed(A)
         except Exception as exc:  # any cause: the tracker has no template left to servo on
             raise StateError(f"tracker {self.tracker_name!r} could not switch to the near-goal template (ROI "
                              f"{near.roi}) at step {step}: {exc}") from exc
+        self.tracker = tracker
         ep.roi, ep.roi0, ep.inset, ep.desired = near.roi, near.corners, near.inset, near.desired
         ep.controller = self._controller(self._pinhole(near.desired), ep.goal, near.roi)
         if ep.feature_filter is not None:

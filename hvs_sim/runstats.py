@@ -156,6 +156,7 @@ class RunStats:
             "roi_inset_px": self.first.template[1],
             "near_goal": None if config.near_goal_inset_px is None else {
                 "inset_px": config.near_goal_inset_px, "within_px": config.near_goal_px or NEAR_GOAL_PX,
+                "scale": config.near_goal_scale,
                 "switched_at_step": self.switched_at,
                 "note": "the step from which the grown template's corners were the features (null: never switched)"},
             "goal_frames": self.first.template[2],

@@ -183,6 +183,24 @@ def test_the_loop_switches_to_the_grown_template_near_the_goal(pipeline):
     assert s["near_goal"]["inset_px"] == -90
 
 
+def test_the_near_goal_template_may_be_tracked_at_a_coarser_working_scale():
+    sc = make_scenario("clear", mount="arm", start_offset=(0.002, 0.001, 0.0, 0.0, 0.0, 0.0))
+    cfg = LoopConfig(steps=3, keep_frames=False, near_goal_inset_px=-90, near_goal_scale=0.25)
+    loop = ServoLoop(sc, "hybrid", cfg, warp="homography")
+    first = loop.tracker
+    recs = list(loop)
+    assert [r.template[1] for r in recs] == [GOAL_ROI_INSET_PX, -90, -90]
+    assert loop.tracker is not first and loop.tracker.aligner.config.scale == 0.25 and first.aligner.config.scale == 0.5
+    assert loop.tracker.warp == "homography"  # the run's own settings, the scale aside
+    assert all(r.mode == "align" and r.tracker_error_px < 0.5 for r in recs), [(r.mode, r.tracker_error_px) for r in recs]
+    assert summarize_run(recs, cfg)["near_goal"]["scale"] == 0.25
+    for bad in (0, 1.5, True):
+        with pytest.raises(ConfigError, match="near_goal_scale"):
+            LoopConfig(near_goal_inset_px=-90, near_goal_scale=bad)
+    with pytest.raises(ConfigError, match="give near_goal_inset_px too"):
+        LoopConfig(near_goal_scale=0.25)
+
+
 def test_the_near_goal_template_is_refused_where_it_cannot_apply():
     for bad in (0, 5, -401, 2.5):
         with pytest.raises(ConfigError, match="near_goal_inset_px"):

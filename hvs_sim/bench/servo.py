@@ -62,6 +62,7 @@ class ServoBenchConfig:
     template_from: str | None = None  # LoopConfig.template_from of every episode (None: the loop's default)
     roi_inset_px: int | None = None  # LoopConfig.roi_inset_px of every episode (None: the loop's default)
     near_goal_inset_px: int | None = None  # LoopConfig.near_goal_inset_px of every episode (None: one template)
+    near_goal_scale: float | None = None  # LoopConfig.near_goal_scale of every episode
     goal_frames: int | None = None  # LoopConfig.goal_frames of the episodes with a goal template (None: the loop's default)
     feature_filter: float | None = None  # LoopConfig.feature_filter of the episodes with tracked corners (None: default)
     width: int = 640  # image size of every episode
@@ -122,7 +123,8 @@ class ServoBenchConfig:
         if self.damping is not None:
             check_number("damping", self.damping, 0, 1)
         LoopConfig(template_from=self.template_from, roi_inset_px=self.roi_inset_px, goal_frames=self.goal_frames,
-                   feature_filter=self.feature_filter, near_goal_inset_px=self.near_goal_inset_px)  # checks them
+                   feature_filter=self.feature_filter, near_goal_inset_px=self.near_goal_inset_px,
+                   near_goal_scale=self.near_goal_scale)  # checks them
         if self.goal_frames is not None and self.template_from == "start":
             raise ConfigError(f"goal_frames ({self.goal_frames}) averages frames into a goal image; with template_from "
                               "'start' no episode has one: leave one of them out")
@@ -237,7 +239,7 @@ def _episode(args):
     from hvs_sim.scene.scenarios import CameraConfig
 
     (scen_name, method, seed, steps, extra, keep, camera, people, damping, template_from, inset, goal_frames, alpha,
-     size, tilt, run_as, arm, near_goal) = args
+     size, tilt, run_as, arm, near_goal, near_goal_scale) = args
     torch.set_num_threads(1 if os.environ.get("HVS_WORKERS", "1") != "1" else 2)
     started = time.perf_counter()
     tracker, warp, controller, policy = parse_method(run_as)
@@ -250,7 +252,7 @@ def _episode(args):
                              ibvs=IBVSConfig(damping=damping), template_from=template_from if tracked else None,
                              roi_inset_px=inset, goal_frames=goal_frames if goal_template else None,  # with a goal image
                              feature_filter=alpha if tracked else None,  # ... and with tracked corners
-                             near_goal_inset_px=near_goal)
+                             near_goal_inset_px=near_goal, near_goal_scale=near_goal_scale)
     drawn = time.perf_counter()
     summary, records = run_episode(scen, tracker, loop_config, progress=False, keep_records=keep,
                                    tracker_settings={"warp": warp} if warp else None)
@@ -333,7 +335,7 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
     jobs = [(s, t, seed, config.steps, config.extra_steps, seed == seeds[0], config.camera, config.people, config.damping,
              config.template_from, config.roi_inset_px, config.goal_frames, config.feature_filter,
              (config.width, config.height), np.radians(config.tilt_deg), run_as[t], config.arm,
-             config.near_goal_inset_px)
+             config.near_goal_inset_px, config.near_goal_scale)
             for s in config.scenarios for t in config.trackers for seed in seeds]
     os.environ["HVS_WORKERS"] = str(config.workers)
     episodes, traces = {}, {}

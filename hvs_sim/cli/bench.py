@@ -26,7 +26,7 @@ def _check_bench_options(args) -> None:
         return
     for flag, value in (("--episodes", args.episodes), ("--damping", args.damping), ("--arm", args.arm),
                         ("--template-from", args.template_from), ("--roi-inset", args.roi_inset),
-                        ("--near-goal-inset", args.near_goal_inset),
+                        ("--near-goal-inset", args.near_goal_inset), ("--near-goal-scale", args.near_goal_scale),
                         ("--goal-frames", args.goal_frames), ("--feature-filter", args.feature_filter),
                         ("--extra-steps", args.extra_steps)):
         if value is not None:
@@ -192,7 +192,7 @@ def _cmd_bench_sim(args) -> int:
         if args.extra_steps is not None and args.smoke:
             raise ConfigError("--extra-steps and --smoke disagree: a smoke run has its own 30 steps; give one")
         for opt, field in (("damping", "damping"), ("template_from", "template_from"), ("roi_inset", "roi_inset_px"),
-                           ("near_goal_inset", "near_goal_inset_px"),
+                           ("near_goal_inset", "near_goal_inset_px"), ("near_goal_scale", "near_goal_scale"),
                            ("goal_frames", "goal_frames"), ("feature_filter", "feature_filter"),
                            ("extra_steps", "extra_steps"), ("arm", "arm")):  # servo-only settings the user gave
             if getattr(args, opt) is not None:
@@ -271,6 +271,9 @@ def add_bench_parser(sub) -> None:
     p.add_argument("--near-goal-inset", type=int, default=None, metavar="PX",
                    help="servo only: switch each episode's tracker to a second goal template grown PX (negative) "
                         "beyond the target's outline near the goal (as `run --near-goal-inset`)")
+    p.add_argument("--near-goal-scale", type=float, default=None, metavar="S",
+                   help="servo only: the working scale of the tracker on the --near-goal-inset template (as `run "
+                        "--near-goal-scale`)")
     p.add_argument("--goal-frames", type=int, default=None, metavar="N",
                    help=f"servo only: frames averaged into the goal image (as `run --goal-frames`; default {GOAL_FRAMES} with a goal "
                         "template)")

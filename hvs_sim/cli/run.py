@@ -56,6 +56,7 @@ def cmd_run(args) -> int:
                         template_from=args.template_from,
                         roi_inset_px=args.roi_inset, goal_frames=args.goal_frames,
                         near_goal_inset_px=args.near_goal_inset, near_goal_px=args.near_goal_px,
+                        near_goal_scale=args.near_goal_scale,
                         feature_filter=args.feature_filter)
     summary, _ = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,
                              tracker_settings=settings, figures=args.figures, mcap=args.mcap)
@@ -150,6 +151,9 @@ def add_run_parser(sub) -> None:
                    help="switch to a second goal template, grown PX (negative) beyond the target's outline, once the "
                         "tracked corners are within --near-goal-px of the goal's: the default template's robustness "
                         "from afar, the grown one's precision at the goal (-90 with the built-in wall, docs/results.md)")
+    p.add_argument("--near-goal-scale", type=float, default=None, metavar="S",
+                   help="track the --near-goal-inset template at this working scale (the tracker's `scale`, e.g. 0.25: "
+                        "its VGG features cost what its area does; the intensity refinement stays at full resolution)")
     p.add_argument("--near-goal-px", type=float, default=None, metavar="PX",
                    help="mean corner distance to the goal's corners that switches to the --near-goal-inset template "
                         f"(default {NEAR_GOAL_PX})")
