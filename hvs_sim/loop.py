@@ -298,6 +298,12 @@ class ServoLoop:
         self.image_law = config.controller == "dvs" or (self.law is not None and not self.law.uses_features)
         check_combination(tracker, config, self.image_law)
         self.tracker = loop_tracker(tracker, tracker_config)
+        self.near_goal_tracker = None  # the tracker on the near-goal template, when it is another (near_goal_scale)
+        if config.near_goal_scale is not None and tracker not in (plugins.GROUND_TRUTH, plugins.NO_TRACKER):
+            if tracker not in TRACKER_NAMES:  # (ground truth and no tracker: _resolve says they have no template)
+                raise ConfigError(f"near_goal_scale builds a built-in tracker again at another working scale; "
+                                  f"{tracker!r} is not one of {', '.join(TRACKER_NAMES)}: leave near_goal_scale out")
+            self.near_goal_tracker = make_tracker(tracker, **{**tracker_config, "scale": config.near_goal_scale})
         self.scenario, self.tracker_name, self.config = scenario, tracker, config
         self.oracle = tracker == plugins.GROUND_TRUTH
         # what a law's failure may raise and the run records as a fault: the built-ins raise HvsError (PBVS on a
@@ -312,12 +318,6 @@ class ServoLoop:
         self.desired_depth = float(scenario.standoff)
         check_start_in_view(self.scene, self.renderer)
         self.resolved = self._resolve(tracker, config)
-        self.near_goal_tracker = None  # the tracker on the near-goal template, when it is another (near_goal_scale)
-        if config.near_goal_scale is not None:
-            if tracker not in TRACKER_NAMES:
-                raise ConfigError(f"near_goal_scale builds a built-in tracker again at another working scale; "
-                                  f"{tracker!r} is not one of {', '.join(TRACKER_NAMES)}: leave near_goal_scale out")
-            self.near_goal_tracker = make_tracker(tracker, **{**tracker_config, "scale": config.near_goal_scale})
         self.ibvs_config = dataclasses.replace(config.ibvs, damping=self.resolved.damping)
         # the camera's frames are rendered only when something reads them: a tracker, a law on the images (or an
         # outside one), a policy, or the records (the recording, the figures); the oracle's features and the
@@ -371,6 +371,9 @@ class ServoLoop:
             raise ConfigError(f"roi_inset_px {inset} grows the template into the target's surroundings, which only a "
                               "goal template may take in: this run's template comes from its first frame (give "
                               "template_from='goal', or an inset ≥ 0)")
+        if config.ibvs.depth == "true" and (config.near_goal_inset_px is not None or (inset is not None and inset < 0)):
+            raise ConfigError("depth='true' gives IBVS the depths of the target's own corners; a grown template's "
+                              "corners lie beyond them, in its plane: leave depth at 'scale' (the tracked scale)")
         if config.near_goal_inset_px is not None and (self.tracker is None or template_from != "goal"):
             why = (f"tracker {tracker!r} has no template" if self.tracker is None else
                    "this run's template comes from its first frame (give template_from='goal')")
@@ -581,7 +584,8 @@ class ServoLoop:
         off the goal image."""
         roi = inset_roi(outline, inset)
         width, height = self.renderer.width, self.renderer.height  # the goal image's (a run may render no frames)
-        if inset < 0 and (roi[0] < 0 or roi[1] < 0 or roi[0] + roi[2] > width or roi[1] + roi[3] > height):
+        # as far inside as the switch asks of the grown box in the frame (_near_goal_due), so that it can switch
+        if inset < 0 and not corners_in_view(roi_corners(roi), self.scenario.camera, IN_VIEW_MARGIN_PX):
             raise InputError(f"the template grown {-inset} px beyond the target's outline, {roi[2]}×{roi[3]} px at "
                              f"({roi[0]}, {roi[1]}), runs off the {width}×{height} goal image: grow it less (a "
                              f"{option} nearer 0)")

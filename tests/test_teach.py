@@ -9,6 +9,7 @@ import pytest
 from sklearn.datasets import load_sample_image
 
 from hvs_sim.cli import main
+from hvs_sim.control.ibvs import IBVSConfig
 from hvs_sim.errors import ConfigError, InputError, StateError
 from hvs_sim.loop import GOAL_FRAMES, GOAL_ROI_INSET_PX, LoopConfig, ServoLoop, summarize_run
 from hvs_sim.render.renderer import Renderer
@@ -221,6 +222,18 @@ def test_the_near_goal_template_is_refused_where_it_cannot_apply():
                        warp="homography"))
     assert main(["bench", "track", "--near-goal-inset", "-90"]) == 2
     assert main(["run", "--near-goal-px", "3", "--steps", "1"]) == 2
+    with pytest.raises(ConfigError, match="depth='true'"):  # IBVS would be given the target's corners' depths
+        ServoLoop(sc, "hybrid", LoopConfig(steps=1, near_goal_inset_px=-90, ibvs=IBVSConfig(depth="true")),
+                  warp="homography")
+    # the servo benchmark refuses a method without a goal template before any episode runs, not in the middle
+    from hvs_sim.bench.servo import ServoBenchConfig
+
+    for method in ("ground_truth", "hybrid"):
+        with pytest.raises(ConfigError, match=f"servo method '{method}' has no goal template"):
+            ServoBenchConfig(trackers=(method, "hybrid:homography"), near_goal_inset_px=-90)
+    with pytest.raises(ConfigError, match="a negative --roi-inset"):
+        ServoBenchConfig(trackers=("ground_truth",), roi_inset_px=-90)
+    ServoBenchConfig(trackers=("hybrid:homography", "hybrid:homography/pbvs"), near_goal_inset_px=-90)
 
 
 def test_the_template_view_and_inset_default_to_the_goal_for_six_dof_tracking_only():

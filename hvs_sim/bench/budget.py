@@ -35,7 +35,7 @@ from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
 from hvs_sim.control.ibvs import interaction_matrix
 from hvs_sim.errors import ConfigError, InputError
 from hvs_sim.geometry import offset_pose
-from hvs_sim.loop import GOAL_ROI_INSET_PX, MAX_TEMPLATE_GROWTH_PX
+from hvs_sim.loop import GOAL_ROI_INSET_PX, IN_VIEW_MARGIN_PX, MAX_TEMPLATE_GROWTH_PX
 from hvs_sim.loopparts import GOAL_FRAMES
 from hvs_sim.tracking.frames import inset_roi, roi_corners, roi_from_corners
 from hvs_sim.tracking.warp import perspective_transform
@@ -93,9 +93,11 @@ def template_roi(corners: np.ndarray, standoff: float, inset: int = GOAL_ROI_INS
     except InputError:
         raise ConfigError(f"the target is too small in the image at {standoff} m to be tracked (its template "
                           f"would be under the trackers' minimum); give a larger target or a shorter standoff") from None
-    if inset < 0 and image_size is not None:
+    if inset < 0 and image_size is not None:  # as far inside as the loop's switch to it asks (loop.IN_VIEW_MARGIN_PX)
         w, h = image_size
-        if roi[0] < 0 or roi[1] < 0 or roi[0] + roi[2] > w or roi[1] + roi[3] > h:
+        c = roi_corners(roi)
+        if c.min() < IN_VIEW_MARGIN_PX or c[:, 0].max() > w - 1 - IN_VIEW_MARGIN_PX or \
+                c[:, 1].max() > h - 1 - IN_VIEW_MARGIN_PX:
             raise ConfigError(f"the template grown {-inset} px beyond the target's outline ({roi[2]}×{roi[3]} px) runs "
                               f"off the {w}×{h} image at {standoff} m: grow it less, or give a smaller target or a "
                               "longer standoff")
@@ -330,7 +332,8 @@ def closed_loop(camera: str, standoff: float, episodes: int, progress=None, seed
                                                                   evaluate=False, near_goal_inset_px=near_goal_inset_px),
                                  progress=False, tracker_settings={"warp": BUDGET_WARP})
         runs.append({"seed": seed, "final_pose_error_mm": summary["final_pose_error_mm"],
-                     "final_pose_error_deg": summary["final_pose_error_deg"], "held_to_end": summary["held_to_end"]})
+                     "final_pose_error_deg": summary["final_pose_error_deg"], "held_to_end": summary["held_to_end"],
+                     "near_goal_switched_at_step": (summary["near_goal"] or {}).get("switched_at_step")})
         if progress is not None:
             progress(k + 1)
     return runs

@@ -128,6 +128,17 @@ class ServoBenchConfig:
         if self.goal_frames is not None and self.template_from == "start":
             raise ConfigError(f"goal_frames ({self.goal_frames}) averages frames into a goal image; with template_from "
                               "'start' no episode has one: leave one of them out")
+        grown = [flag for flag, on in (("--near-goal-inset", self.near_goal_inset_px is not None),
+                                       ("a negative --roi-inset", (self.roi_inset_px or 0) < 0)) if on]
+        if grown:  # a grown template needs a tracked goal template: refused before any episode, not in the middle
+            from hvs_sim.loop import template_view
+
+            for m in self.trackers:
+                tracker, warp, _, _ = parse_method(m)
+                tracked = tracker not in (plugins.GROUND_TRUTH, plugins.NO_TRACKER)
+                if not (tracked and template_view(self.template_from, warp == "homography") == "goal"):
+                    raise ConfigError(f"servo method {m!r} has no goal template to grow ({grown[0]} applies to a "
+                                      "tracker on six DOF, e.g. hybrid:homography): run it without that option")
 
     @property
     def episode_seeds(self) -> list[int]:
