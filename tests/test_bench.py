@@ -55,3 +55,20 @@ def test_scene_command_writes_frames_and_ground_truth(tmp_path):
     assert len(list((out / "frames").glob("*.png"))) == 5
     assert (out / "ground_truth.csv").read_text().count("\n") == 6
     assert (out / "preview.png").exists() and (out / "ground_truth.npz").exists()
+
+
+def test_servo_results_count_the_episodes_that_switched_to_the_near_goal_template():
+    """A run with --near-goal-inset reports how many episodes switched (one that never did is the default template's
+    figure under the near-goal's name); a run without it reports none. On the committed benchmark episodes."""
+    from pathlib import Path
+
+    from hvs_sim.bench.servo import method_results
+
+    root = Path(__file__).resolve().parents[1] / "experiments" / "results" / "servo_context"
+    for folder, switched in (("near_goal", 20), ("small", None)):
+        eps = json.loads((root / folder / "summary.json").read_text())["episodes"]
+        walk_by = [e for e in eps if e["scenario"] == "walk_by"]
+        assert method_results(walk_by, 1.0)["near_goal_switched"] == switched
+    never = [dict(e, near_goal=dict(e["near_goal"], switched_at_step=None)) for e in
+             json.loads((root / "near_goal" / "summary.json").read_text())["episodes"][:3]]
+    assert method_results(never, 1.0)["near_goal_switched"] == 0

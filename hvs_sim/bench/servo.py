@@ -293,6 +293,7 @@ def method_results(eps: list[dict], success_px: float) -> dict:
     conv = [e["seconds_to_converge"] for e in eps if e["converged"]]
     occ = [e["max_error_px_during_occlusion"] for e in eps if e["max_error_px_during_occlusion"] is not None]
     reacq = [e.get("reacquired") for e in eps if e.get("reacquired") is not None]
+    near = [e.get("near_goal") for e in eps]  # None: one template (LoopConfig.near_goal_inset_px not given)
     return {
         "episodes": len(eps), "success": success, "success_rate": success["hvs_sim"]["rate"],
         "reached": rate([e["converged"] for e in eps]), "converged_rate": float(np.mean([e["converged"] for e in eps])),
@@ -320,6 +321,10 @@ def method_results(eps: list[dict], success_px: float) -> dict:
         "mean_lost_steps": float(np.mean([e["lost_steps"] for e in eps])),
         "mean_predict_steps": float(np.mean([e["predict_steps"] for e in eps])),
         "steps_per_second": float(np.median([e["steps_per_second"] for e in eps])),
+        # episodes that switched to the near-goal template (None without one): a run that never switched is the
+        # default template's figure under the near-goal's name
+        "near_goal_switched": (None if all(n is None for n in near) else
+                               int(sum(n is not None and n.get("switched_at_step") is not None for n in near))),
     }
 
 

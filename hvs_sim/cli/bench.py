@@ -214,7 +214,9 @@ def _cmd_bench_sim(args) -> int:
                 print(f"{s:8s} {t:24s} success {100 * ok['rate']:5.1f}% (95% CI {100 * lo:.0f}-{100 * hi:.0f}), "
                       f"reached {100 * reached['rate']:.0f}%, CNS {100 * r['success']['cns']['rate']:.0f}%, Felton "
                       f"{100 * r['success']['felton']['rate']:.0f}%, ViSP {100 * r['success']['visp']['rate']:.0f}%; "
-                      f"median final {r['median_final_error_px']:.2f} px, {r['median_final_pose_error_mm']:.1f} mm")
+                      f"median final {r['median_final_error_px']:.2f} px, {r['median_final_pose_error_mm']:.1f} mm"
+                      + ("" if r.get("near_goal_switched") is None else
+                         f"; switched to the near-goal template in {r['near_goal_switched']} of {r['episodes']}"))
         tp = summary.get("throughput")  # (an outside stand-in for the benchmark may not report it)
         med = tp and tp.get("median_episode_seconds")
         if med:
