@@ -170,6 +170,11 @@ class LoopConfig:
         check_number("converge_deg", self.converge_deg, 0, lo_open=True)
         check_flags(self, ("keep_frames", "evaluate", "pipeline"))
 
+    @property
+    def near_goal_within_px(self) -> float:
+        """near_goal_px resolved: NEAR_GOAL_PX where it is not given."""
+        return NEAR_GOAL_PX if self.near_goal_px is None else float(self.near_goal_px)
+
 
 @dataclass
 class StepRecord:
@@ -226,6 +231,12 @@ def corners_in_view(px: np.ndarray, camera, margin: float = 0.0) -> bool:
     """Whether all points (pixels) are finite and at least `margin` inside a camera's image."""
     hi = np.array([camera.width - 1, camera.height - 1]) - margin
     return bool(np.all(np.isfinite(px)) and np.all((px >= margin) & (px <= hi)))
+
+
+def box_in_view(roi, camera) -> bool:
+    """Whether a template box lies as far inside a camera's image as the switch to a grown template asks of its
+    corners in the frame (ServoLoop._near_goal_due: IN_VIEW_MARGIN_PX), so that a run given it can switch."""
+    return corners_in_view(roi_corners(roi), camera, IN_VIEW_MARGIN_PX)
 
 
 def check_start_in_view(scene: Scene, renderer: Renderer) -> None:
@@ -575,19 +586,17 @@ class ServoLoop:
             except Exception as exc:  # outside code: the run cannot start, and says why
                 raise StateError(f"policy {self.config.policy!r} failed in reset(): {type(exc).__name__}: {exc}") \
                     from exc
-        feature_filter = (FeatureFilter(r.K, res.filter_alpha, self._pinhole(desired), self.desired_depth)
-                          if res.filter_alpha > 0 else None)
+        feature_filter = self._feature_filter(desired) if res.filter_alpha > 0 else None
         return Episode(flag0, roi, roi0, inset, desired, template_frame, goal, controller, feature_filter, near_goal)
 
     def _template_box(self, outline, inset: int, option: str) -> tuple[int, int, int, int]:
         """The template's box: the target's outline box inset (grown, when negative); InputError when a grown box runs
         off the goal image."""
         roi = inset_roi(outline, inset)
-        width, height = self.renderer.width, self.renderer.height  # the goal image's (a run may render no frames)
-        # as far inside as the switch asks of the grown box in the frame (_near_goal_due), so that it can switch
-        if inset < 0 and not corners_in_view(roi_corners(roi), self.scenario.camera, IN_VIEW_MARGIN_PX):
+        cam = self.scenario.camera  # the goal image's size (a run may render no frames)
+        if inset < 0 and not box_in_view(roi, cam):
             raise InputError(f"the template grown {-inset} px beyond the target's outline, {roi[2]}×{roi[3]} px at "
-                             f"({roi[0]}, {roi[1]}), runs off the {width}×{height} goal image: grow it less (a "
+                             f"({roi[0]}, {roi[1]}), runs off the {cam.width}×{cam.height} goal image: grow it less (a "
                              f"{option} nearer 0)")
         return roi
 
@@ -597,8 +606,7 @@ class ServoLoop:
         step (ep.grow_from: that homography, the tracker's seed)."""
         if ep.near_goal is None or ep.grown_at is not None or seen.fault is not None or seen.mode != "align":
             return
-        within = NEAR_GOAL_PX if self.config.near_goal_px is None else self.config.near_goal_px
-        if float(np.linalg.norm(seen.features - ep.desired, axis=1).mean()) > within:
+        if float(np.linalg.norm(seen.features - ep.desired, axis=1).mean()) > self.config.near_goal_within_px:
             return
         A = perspective_transform(ep.roi0, seen.features)  # frame from goal image
         grown = apply_warp(A, ep.near_goal.corners)
@@ -620,9 +628,12 @@ class ServoLoop:
         ep.roi, ep.roi0, ep.inset, ep.desired = near.roi, near.corners, near.inset, near.desired
         ep.controller = self._controller(self._pinhole(near.desired), ep.goal, near.roi)
         if ep.feature_filter is not None:
-            ep.feature_filter = FeatureFilter(self.renderer.K, self.resolved.filter_alpha, self._pinhole(near.desired),
-                                              self.desired_depth)
+            ep.feature_filter = self._feature_filter(near.desired)
         ep.grown_at, ep.grow_from = step, None
+
+    def _feature_filter(self, desired: np.ndarray) -> FeatureFilter:
+        """A fresh feature filter (LoopConfig.feature_filter, resolved) on s* = `desired`."""
+        return FeatureFilter(self.renderer.K, self.resolved.filter_alpha, self._pinhole(desired), self.desired_depth)
 
     def _start_tracker(self, ep: Episode, truth: np.ndarray) -> Track | None:
         """The tracker's init on the template: its own track of the first frame with a start template; with a goal

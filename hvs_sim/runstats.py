@@ -10,7 +10,6 @@ import dataclasses
 import numpy as np
 
 from hvs_sim.errors import StateError
-from hvs_sim.loopparts import NEAR_GOAL_PX
 
 MODES = ("align", "predict", "lost", "fault")  # a record's mode, in the order its code (index) is plotted and stored
 
@@ -155,7 +154,7 @@ class RunStats:
             "template_from": self.first.template[0],
             "roi_inset_px": self.first.template[1],
             "near_goal": None if config.near_goal_inset_px is None else {
-                "inset_px": config.near_goal_inset_px, "within_px": config.near_goal_px or NEAR_GOAL_PX,
+                "inset_px": config.near_goal_inset_px, "within_px": config.near_goal_within_px,
                 "scale": config.near_goal_scale,
                 "switched_at_step": self.switched_at,
                 "note": "the step from which the grown template's corners were the features (null: never switched)"},

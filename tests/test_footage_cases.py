@@ -177,7 +177,7 @@ def _panned(image: np.ndarray, dx: float, dy: float = 0.0) -> np.ndarray:
 @pytest.mark.parametrize("warp", ["similarity", "homography"])
 def test_a_static_target_is_followed_when_the_whole_view_moves_faster_than_reacquire_px(warp):
     """A servo's first steps pan the view ~10 px a frame: the alignment lands further from the last estimate than
-    reacquire_px, but the surroundings moved with it, so it is no jump to verify (SceneMotionSource.peek)."""
+    reacquire_px, but the surroundings moved with it, so it is no jump to verify (BackgroundMotion.peek)."""
     from sklearn.datasets import load_sample_image
 
     wall = cv2.resize(load_sample_image("china.jpg"), (640, 480), interpolation=cv2.INTER_AREA)

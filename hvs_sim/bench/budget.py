@@ -35,7 +35,7 @@ from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
 from hvs_sim.control.ibvs import interaction_matrix
 from hvs_sim.errors import ConfigError, InputError
 from hvs_sim.geometry import offset_pose
-from hvs_sim.loop import GOAL_ROI_INSET_PX, IN_VIEW_MARGIN_PX, MAX_TEMPLATE_GROWTH_PX
+from hvs_sim.loop import GOAL_ROI_INSET_PX, MAX_TEMPLATE_GROWTH_PX, box_in_view
 from hvs_sim.loopparts import GOAL_FRAMES
 from hvs_sim.tracking.frames import inset_roi, roi_corners, roi_from_corners
 from hvs_sim.tracking.warp import perspective_transform
@@ -80,27 +80,23 @@ def goal_view(scenario, inset: int = GOAL_ROI_INSET_PX):
     clean = encode(linear * np.float32(gain))
     var = output_variance(model, linear, gain) + jpeg_variance(clean, model.jpeg_quality)
     grey_var = (var * GREY ** 2).sum(axis=2)
-    return clean, grey_var, r.K, template_roi(corners, scenario.standoff, inset, (r.width, r.height))
+    return clean, grey_var, r.K, template_roi(corners, scenario.standoff, inset, scenario.camera)
 
 
 def template_roi(corners: np.ndarray, standoff: float, inset: int = GOAL_ROI_INSET_PX,
-                 image_size: tuple[int, int] | None = None) -> tuple[int, int, int, int]:
+                 camera=None) -> tuple[int, int, int, int]:
     """The template the loop tracks: the target's outline inset by `inset` px (GOAL_ROI_INSET_PX, the loop's; negative:
-    grown beyond it, which must stay inside the image of `image_size` (w, h)); a clear error when that is too small to
-    track or runs off the image."""
+    grown beyond it, which must stay inside `camera`'s image as the loop asks, loop.box_in_view); a clear error when
+    that is too small to track or runs off the image."""
     try:
         roi = inset_roi(roi_from_corners(corners), inset)
     except InputError:
         raise ConfigError(f"the target is too small in the image at {standoff} m to be tracked (its template "
                           f"would be under the trackers' minimum); give a larger target or a shorter standoff") from None
-    if inset < 0 and image_size is not None:  # as far inside as the loop's switch to it asks (loop.IN_VIEW_MARGIN_PX)
-        w, h = image_size
-        c = roi_corners(roi)
-        if c.min() < IN_VIEW_MARGIN_PX or c[:, 0].max() > w - 1 - IN_VIEW_MARGIN_PX or \
-                c[:, 1].max() > h - 1 - IN_VIEW_MARGIN_PX:
-            raise ConfigError(f"the template grown {-inset} px beyond the target's outline ({roi[2]}×{roi[3]} px) runs "
-                              f"off the {w}×{h} image at {standoff} m: grow it less, or give a smaller target or a "
-                              "longer standoff")
+    if inset < 0 and camera is not None and not box_in_view(roi, camera):
+        raise ConfigError(f"the template grown {-inset} px beyond the target's outline ({roi[2]}×{roi[3]} px) runs "
+                          f"off the {camera.width}×{camera.height} image at {standoff} m: grow it less, or give a "
+                          "smaller target or a longer standoff")
     return roi
 
 
@@ -254,7 +250,7 @@ def measure(scenario, hold_frames: int = HOLD_FRAMES, near_poses: int = NEAR_POS
     with scene.posed(q0):  # the goal image as the loop takes it; then time runs with the arm held there
         teacher = Renderer(scene, people=False)
         goal, c0 = teacher.still_average(GOAL_FRAMES), teacher.ground_truth(occlusion=False).corners
-        roi = template_roi(c0, scenario.standoff, inset, (teacher.width, teacher.height))
+        roi = template_roi(c0, scenario.standoff, inset, scenario.camera)
         roi0 = roi_corners(roi)
         U, Vt, mm = weak_directions(teacher.K, roi0, scenario.standoff)
         camera = Renderer(scene, people=False)

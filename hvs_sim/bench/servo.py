@@ -131,12 +131,9 @@ class ServoBenchConfig:
         grown = [flag for flag, on in (("--near-goal-inset", self.near_goal_inset_px is not None),
                                        ("a negative --roi-inset", (self.roi_inset_px or 0) < 0)) if on]
         if grown:  # a grown template needs a tracked goal template: refused before any episode, not in the middle
-            from hvs_sim.loop import template_view
-
             for m in self.trackers:
                 tracker, warp, _, _ = parse_method(m)
-                tracked = tracker not in (plugins.GROUND_TRUTH, plugins.NO_TRACKER)
-                if not (tracked and template_view(self.template_from, warp == "homography") == "goal"):
+                if not has_goal_template(tracker, warp, self.template_from):
                     raise ConfigError(f"servo method {m!r} has no goal template to grow ({grown[0]} applies to a "
                                       "tracker on six DOF, e.g. hybrid:homography): run it without that option")
 
@@ -216,6 +213,16 @@ def episode_offset(seed: int, standoff: float = 0.8, draw: int = 0, tilt: float 
     return tuple(float(v) + 0.0 for v in rng.uniform(*offset_range(standoff, tilt)))
 
 
+def has_goal_template(tracker: str, warp: str | None, template_from: str | None) -> bool:
+    """Whether a servo method's episodes track a template cut from the goal image (LoopConfig.template_from as the
+    loop resolves it for the method's tracker and warp)."""
+    from hvs_sim import plugins
+    from hvs_sim.loop import template_view
+
+    tracked = tracker not in (plugins.GROUND_TRUTH, plugins.NO_TRACKER)
+    return tracked and template_view(template_from, warp == "homography") == "goal"
+
+
 def episode_scenario(scen_name: str, seed: int, tilt: float = TILT_MAX, **overrides):
     """The episode's scenario with the first drawn start pose that the arm reaches and from which
     the target is fully in view (the same for every method of that seed)."""
@@ -245,7 +252,6 @@ def _episode(args):
 
     from hvs_sim import plugins
     from hvs_sim.control.ibvs import IBVSConfig
-    from hvs_sim.loop import template_view
     from hvs_sim.runner import run_episode
     from hvs_sim.scene.scenarios import CameraConfig
 
@@ -258,7 +264,7 @@ def _episode(args):
                                 people=people, arm=arm)
     n = steps if steps else scen.n_frames + extra
     tracked = tracker not in (plugins.GROUND_TRUTH, plugins.NO_TRACKER)
-    goal_template = tracked and template_view(template_from, tracked and warp == "homography") == "goal"
+    goal_template = has_goal_template(tracker, warp, template_from)
     loop_config = LoopConfig(steps=n, keep_frames=False, controller=controller, policy=policy,
                              ibvs=IBVSConfig(damping=damping), template_from=template_from if tracked else None,
                              roi_inset_px=inset, goal_frames=goal_frames if goal_template else None,  # with a goal image

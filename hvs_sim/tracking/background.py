@@ -333,6 +333,15 @@ class BackgroundMotion:
         return None
 
 
+    def peek(self, key: np.ndarray, grey: np.ndarray, hidden: np.ndarray | None = None) -> np.ndarray | None:
+        """What `update` would answer for `grey` from the chain's last frame (`key` where the chain has not started),
+        leaving the chain as it was: for a check on a frame that may still be aligned. None where the scene gives
+        no trustworthy motion."""
+        k, src, M_src = self.chain[-1] if self.chain else (0, key, np.eye(3))
+        measured = self.step(src, grey, max(self.frame + 1 - k, 1), hidden)
+        return None if measured is None else measured[0] @ M_src
+
+
 @dataclass
 class _Keyframe:
     image: np.ndarray  # grey, work pixels

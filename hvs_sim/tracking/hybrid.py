@@ -331,11 +331,11 @@ class HybridTracker(Tracker):
 
     def _surroundings_agree(self, A: np.ndarray, work: np.ndarray | None) -> bool:
         """Whether the surroundings' motion since the last measured frame puts the target within reacquire_px of A
-        (SceneMotionSource.peek; False without the surroundings, or where they cannot be measured)."""
+        (SceneMotionSource.measure, peeking; False without the surroundings, or where they cannot be measured)."""
         st = self.state
         if work is None or self.scene_motion is None or not (st.scene_held and st.drift_run <= SURROUNDINGS_GUESSES):
             return False  # the veto's condition: the estimate is the surroundings' (a seed's or a long guess's is not)
-        B = self.scene_motion.peek(work, st)
+        B = self.scene_motion.measure(work, st, peek=True)
         center0 = st.center0
         return B is not None and bool(np.linalg.norm(matrix_to_pose(A, center0)[:2] - matrix_to_pose(B, center0)[:2])
                                       <= self.hconfig.reacquire_px)

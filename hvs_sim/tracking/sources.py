@@ -122,32 +122,24 @@ class SceneMotionSource:
         self.last_aligned: tuple[int, np.ndarray] | None = None
         self.key = state.keyframe  # (work image, full-res warp) where the chain starts
 
-    def measure(self, work, state: HybridState) -> np.ndarray | None:
+    def measure(self, work, state: HybridState, peek: bool = False) -> np.ndarray | None:
         """Where the surroundings' motion since the chain's start puts the target (full-res warp), ungated; None when
         the surroundings cannot be measured. The target's box at the current estimate is where the surroundings are
-        not (background.BackgroundConfig.occluder_prior)."""
+        not (background.BackgroundConfig.occluder_prior). `peek`: measured in one hop from the chain's last good
+        frame, the chain left as it was (BackgroundMotion.peek), for a check on a frame that may still be aligned
+        (HybridTracker._verified)."""
         key_work, A_key = self.key
-        if not self.motion.active:
-            self.motion.start(key_work)
         hidden = apply(self.aligner.S @ state.A, state.corners0)
-        M = self.motion.update(work, hidden)
+        if peek:
+            M = self.motion.peek(key_work, work, hidden)
+        else:
+            if not self.motion.active:
+                self.motion.start(key_work)
+            M = self.motion.update(work, hidden)
         if M is None:
             return None
         al = self.aligner
         return al.S_inv @ M @ al.S @ A_key  # (keyframe → this frame, full-res) ∘ keyframe warp
-
-    def peek(self, work, state: HybridState) -> np.ndarray | None:
-        """Where the surroundings' motion puts the target in `work` (full-res warp), as `measure` would, but measured
-        in one hop from the chain's last good frame and leaving the chain as it was: for a check on a frame that may
-        still be aligned (HybridTracker._verified). None when the surroundings cannot be measured."""
-        key_work, A_key = self.key
-        k, src, M_src = self.motion.chain[-1] if self.motion.active else (0, key_work, np.eye(3))
-        hidden = apply(self.aligner.S @ state.A, state.corners0)
-        measured = self.motion.step(src, work, max(self.motion.frame + 1 - k, 1), hidden)
-        if measured is None:
-            return None
-        al = self.aligner
-        return al.S_inv @ measured[0] @ M_src @ al.S @ A_key
 
     def propose(self, work, state):
         A = self.measure(work, state)
