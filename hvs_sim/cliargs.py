@@ -20,6 +20,16 @@ def add_settings_option(p: argparse.ArgumentParser) -> None:
                         "key is an error that lists the accepted ones")
 
 
+def near_goal_inset(text: str) -> int | str:
+    """--near-goal-inset's value: auto, off, or a whole number of px (LoopConfig.near_goal_inset_px checks it)."""
+    if text in ("auto", "off"):
+        return text
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected auto, off or a negative whole number of px, got {text!r}") from None
+
+
 def parse_settings(items: list[str]) -> dict:
     """KEY=VALUE strings → make_tracker keywords; VALUE is read as JSON (numbers, true/false, null) or else text."""
     out = {}

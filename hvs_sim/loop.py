@@ -35,7 +35,12 @@ from hvs_sim.control.protocol import ControlInput, PolicyInput, scale_depths
 from hvs_sim.errors import ConfigError, HvsError, InputError, StateError, choice_error
 from hvs_sim.loopparts import (
     GOAL_FRAMES,
+    NEAR_GOAL_AREA,
+    NEAR_GOAL_AUTO,
+    NEAR_GOAL_MIN_GROWTH_PX,
+    NEAR_GOAL_OFF,
     NEAR_GOAL_PX,
+    NEAR_GOAL_SCALE,
     TEMPLATE_VIEWS,
     Capture,
     Episode,
@@ -107,12 +112,15 @@ class LoopConfig:
     # are within near_goal_px of s* and the grown box is in view: the small template brings the camera near from
     # afar (the grown box may lie out of a tilted start view, where its first alignment fails), the grown one pins
     # the pose's weak directions at the goal. The tracker is re-seeded on it through the corners' homography, and s*,
-    # the law and the feature filter start again on its corners. None: one template throughout
-    near_goal_inset_px: int | None = None
-    near_goal_px: float | None = None  # None: NEAR_GOAL_PX with near_goal_inset_px (a number without it is refused)
+    # the law and the feature filter start again on its corners. NEAR_GOAL_AUTO (the default): the box grown to
+    # NEAR_GOAL_AREA of the goal image (near_goal_growth), where the loop has a tracker on a goal template and the box
+    # can grow NEAR_GOAL_MIN_GROWTH_PX; otherwise one template, and run.json says why. None: one template throughout.
+    # A number is that growth, and a run it cannot apply to is refused
+    near_goal_inset_px: int | str | None = NEAR_GOAL_AUTO
+    near_goal_px: float | None = None  # None: NEAR_GOAL_PX (a number with near_goal_inset_px None is refused)
     # the working scale (DeepLKConfig.scale) of the tracker on the near-goal template: a built-in tracker is built a
     # second time at this scale for it, as its VGG features cost what the template's area does (the intensity
-    # refinement stays at full resolution). None: the one tracker at its own scale
+    # refinement stays at full resolution). None: NEAR_GOAL_SCALE for a built-in tracker, an outside one's own
     near_goal_scale: float | None = None
     # frames of the still scene averaged into the goal image (Renderer.still_average; 1 = one frame). None:
     # GOAL_FRAMES with a goal template; a number with a start template is refused (it would do nothing)
@@ -134,22 +142,28 @@ class LoopConfig:
             raise choice_error("template_from", self.template_from, TEMPLATE_VIEWS)
         if self.roi_inset_px is not None:
             check_number("roi_inset_px", self.roi_inset_px, -MAX_TEMPLATE_GROWTH_PX, integer=True)
-        if self.near_goal_inset_px is not None:
+        if self.near_goal_inset_px == NEAR_GOAL_OFF:
+            object.__setattr__(self, "near_goal_inset_px", None)
+        if self.near_goal_inset_px is not None and self.near_goal_inset_px != NEAR_GOAL_AUTO:
+            if isinstance(self.near_goal_inset_px, str):
+                raise ConfigError(f"near_goal_inset_px must be {NEAR_GOAL_AUTO!r}, {NEAR_GOAL_OFF!r} or None (one "
+                                  f"template), or a negative whole number of px, got {self.near_goal_inset_px!r}")
             check_number("near_goal_inset_px", self.near_goal_inset_px, -MAX_TEMPLATE_GROWTH_PX, -1, integer=True)
             if self.roi_inset_px is not None and self.roi_inset_px < 0:
                 raise ConfigError(f"near_goal_inset_px ({self.near_goal_inset_px}) switches to a grown template near "
                                   f"the goal, but roi_inset_px ({self.roi_inset_px}) grows the first one already: give "
                                   "one of them (or an roi_inset_px ≥ 0)")
-        if self.near_goal_scale is not None:
-            check_number("near_goal_scale", self.near_goal_scale, 0, 1, lo_open=True)
+        for name, value in (("near_goal_scale", self.near_goal_scale), ("near_goal_px", self.near_goal_px)):
+            if value is None:
+                continue
+            if name == "near_goal_scale":
+                check_number(name, value, 0, 1, lo_open=True)
+            else:
+                check_number(name, value, 0, lo_open=True)
             if self.near_goal_inset_px is None:
-                raise ConfigError(f"near_goal_scale ({self.near_goal_scale}) is the working scale on the near-goal "
-                                  "template: give near_goal_inset_px too, or leave near_goal_scale out")
-        if self.near_goal_px is not None:
-            check_number("near_goal_px", self.near_goal_px, 0, lo_open=True)
-            if self.near_goal_inset_px is None:
-                raise ConfigError(f"near_goal_px ({self.near_goal_px}) is when to switch to the near-goal template: "
-                                  "give near_goal_inset_px too, or leave near_goal_px out")
+                raise ConfigError(f"{name} ({value}) sets the near-goal template, which near_goal_inset_px=None turns "
+                                  f"off: leave near_goal_inset_px at {NEAR_GOAL_AUTO!r} (or give a growth), or leave "
+                                  f"{name} out")
         if self.feature_filter is not None:
             check_number("feature_filter (alpha)", self.feature_filter, 0, 1)
         if self.goal_frames is not None:
@@ -239,6 +253,27 @@ def box_in_view(roi, camera) -> bool:
     return corners_in_view(roi_corners(roi), camera, IN_VIEW_MARGIN_PX)
 
 
+def near_goal_growth(outline, camera) -> tuple[int | None, str | None]:
+    """The automatic near-goal template (LoopConfig.near_goal_inset_px = NEAR_GOAL_AUTO): the growth (px, negative
+    as an inset) that takes the target's outline box in the goal image to NEAR_GOAL_AREA of the image, alike on every
+    side, or less where the box would run out of the image (box_in_view). (None, why) where that is under
+    NEAR_GOAL_MIN_GROWTH_PX: the one template is then nearly all there is to take."""
+    x, y, w, h = (int(v) for v in outline)
+    share = w * h / (camera.width * camera.height)
+    # (w + 2g)(h + 2g) = NEAR_GOAL_AREA · W · H, the positive root
+    g = int(np.floor((-(w + h) + np.sqrt((w + h) ** 2 + 4 * (NEAR_GOAL_AREA * camera.width * camera.height - w * h)))
+                     / 4)) if share < NEAR_GOAL_AREA else 0
+    if g < NEAR_GOAL_MIN_GROWTH_PX:
+        return None, (f"the target's box already holds {share:.0%} of the goal image (the near-goal template grows it "
+                      f"to {NEAR_GOAL_AREA:.0%})")
+    while g >= NEAR_GOAL_MIN_GROWTH_PX and not box_in_view(inset_roi((x, y, w, h), -g), camera):
+        g -= 1
+    if g < NEAR_GOAL_MIN_GROWTH_PX:
+        return None, (f"the target's box lies within {NEAR_GOAL_MIN_GROWTH_PX} px of the goal image's edge: no room "
+                      "to grow the near-goal template")
+    return -g, None
+
+
 def check_start_in_view(scene: Scene, renderer: Renderer) -> None:
     """ConfigError unless all four target corners are inside the image from the scenario's start pose."""
     start_pos, start_R = scene.start_pose()
@@ -309,14 +344,14 @@ class ServoLoop:
         self.image_law = config.controller == "dvs" or (self.law is not None and not self.law.uses_features)
         check_combination(tracker, config, self.image_law)
         self.tracker = loop_tracker(tracker, tracker_config)
-        self.near_goal_tracker = None  # the tracker on the near-goal template, when it is another (near_goal_scale)
-        if config.near_goal_scale is not None and tracker not in (plugins.GROUND_TRUTH, plugins.NO_TRACKER):
-            if tracker not in TRACKER_NAMES:  # (ground truth and no tracker: _resolve says they have no template)
-                raise ConfigError(f"near_goal_scale builds a built-in tracker again at another working scale; "
-                                  f"{tracker!r} is not one of {', '.join(TRACKER_NAMES)}: leave near_goal_scale out")
-            self.near_goal_tracker = make_tracker(tracker, **{**tracker_config, "scale": config.near_goal_scale})
         self.scenario, self.tracker_name, self.config = scenario, tracker, config
         self.oracle = tracker == plugins.GROUND_TRUTH
+        self.resolved = self._resolve(tracker, config)
+        self.near_goal_tracker = None  # the tracker on the near-goal template, when it is another (near_goal_scale)
+        if self.resolved.near_goal_scale is not None:
+            self.near_goal_tracker = make_tracker(tracker, **{**tracker_config, "scale": self.resolved.near_goal_scale})
+        self.near_goal_growth: int | None = None  # the near-goal template's growth as step 0 decided it
+        self.near_goal_off = self.resolved.near_goal_off  # why there is none, where NEAR_GOAL_AUTO did not apply
         # what a law's failure may raise and the run records as a fault: the built-ins raise HvsError (PBVS on a
         # degenerate quad); an outside method anything
         self._law_errors = Exception if self.law is not None or self.policy is not None else HvsError
@@ -328,13 +363,24 @@ class ServoLoop:
         self.flag_desired = self.renderer.project(CameraPose(ref_R, ref_pos), self.scene.target_corners_world())
         self.desired_depth = float(scenario.standoff)
         check_start_in_view(self.scene, self.renderer)
-        self.resolved = self._resolve(tracker, config)
         self.ibvs_config = dataclasses.replace(config.ibvs, damping=self.resolved.damping)
         # the camera's frames are rendered only when something reads them: a tracker, a law on the images (or an
         # outside one), a policy, or the records (the recording, the figures); the oracle's features and the
         # evaluation come from geometry and segmentation, so a ground-truth run renders no frame at all
         self.renders_frames = bool(self.tracker is not None or self.policy is not None or self.law is not None
                                    or self.image_law or config.keep_frames)
+
+    def near_goal_plan(self, switched_at: int | None) -> dict | None:
+        """run.json's near_goal: the grown template as this run had it (None: LoopConfig.near_goal_inset_px=None)."""
+        c = self.config
+        if c.near_goal_inset_px is None:
+            return None
+        return {"inset_px": self.near_goal_growth, "auto": c.near_goal_inset_px == NEAR_GOAL_AUTO,
+                "within_px": c.near_goal_within_px,
+                "scale": self.resolved.near_goal_scale or getattr(getattr(self.tracker, "config", None), "scale", None),
+                "off": self.near_goal_off, "switched_at_step": switched_at,
+                "note": "the step from which the grown template's corners were the features (null: never switched); "
+                        "off: why the run kept one template"}
 
     # the resolved settings under the names the rest of the package reads
     warp = property(lambda self: self.resolved.warp)
@@ -382,16 +428,47 @@ class ServoLoop:
             raise ConfigError(f"roi_inset_px {inset} grows the template into the target's surroundings, which only a "
                               "goal template may take in: this run's template comes from its first frame (give "
                               "template_from='goal', or an inset ≥ 0)")
-        if config.ibvs.depth == "true" and (config.near_goal_inset_px is not None or (inset is not None and inset < 0)):
+        if config.ibvs.depth == "true" and inset is not None and inset < 0:
             raise ConfigError("depth='true' gives IBVS the depths of the target's own corners; a grown template's "
                               "corners lie beyond them, in its plane: leave depth at 'scale' (the tracked scale)")
-        if config.near_goal_inset_px is not None and (self.tracker is None or template_from != "goal"):
-            why = (f"tracker {tracker!r} has no template" if self.tracker is None else
-                   "this run's template comes from its first frame (give template_from='goal')")
-            raise ConfigError(f"near_goal_inset_px ({config.near_goal_inset_px}) switches a tracker to a template grown "
-                              f"in the goal image near the goal, but {why}")
-        return ResolvedLoop(warp, dofs, damping, alpha, template_from, goal_frames, inset)
+        near_goal, near_off, near_scale = self._resolve_near_goal(tracker, config, template_from, inset)
+        return ResolvedLoop(warp, dofs, damping, alpha, template_from, goal_frames, inset, near_goal, near_off,
+                            near_scale)
 
+    def _resolve_near_goal(self, tracker: str, config: LoopConfig, template_from: str,
+                           inset: int | None) -> tuple[int | str | None, str | None, float | None]:
+        """(the near-goal template's growth: a number, NEAR_GOAL_AUTO for step 0 to decide, or None; why there is
+        none where NEAR_GOAL_AUTO cannot apply; the working scale a second tracker is built at, None: the loop's
+        own). A number the run cannot apply is refused."""
+        near = config.near_goal_inset_px
+        if near is None:
+            return None, None, None
+        why = None
+        if self.tracker is None:
+            why = f"tracker {tracker!r} has no template"
+        elif template_from != "goal":
+            why = "this run's template comes from its first frame (give template_from='goal')"
+        elif config.ibvs.depth == "true":
+            why = ("depth='true' gives IBVS the depths of the target's own corners, and a grown template's corners lie "
+                   "beyond them (leave depth at 'scale')")
+        elif inset is not None and inset < 0:
+            why = f"roi_inset_px ({inset}) grows the first template already"
+        if why is not None:
+            if near != NEAR_GOAL_AUTO:
+                raise ConfigError(f"near_goal_inset_px ({near}) switches a tracker to a template grown in the goal "
+                                  f"image near the goal, but {why}")
+            return None, why, None
+        scale = config.near_goal_scale
+        # a built-in tracker with a working scale is built again at the near-goal one; any other tracker is its own
+        own = getattr(getattr(self.tracker, "config", None), "scale", None) if tracker in TRACKER_NAMES else None
+        if own is None:
+            if scale is not None:
+                raise ConfigError(f"near_goal_scale builds a built-in tracker again at another working scale; "
+                                  f"{tracker!r} is not one with a working scale (those of "
+                                  f"{', '.join(TRACKER_NAMES)} that take `scale`): leave near_goal_scale out")
+            return near, None, None
+        scale = NEAR_GOAL_SCALE if scale is None else float(scale)
+        return near, None, (None if abs(own - scale) < 1e-12 else scale)
     def controlled_pose_error(self, pose_error: np.ndarray) -> tuple[float, float]:
         """(mm, deg) of the pose error in the DOFs this loop controls."""
         cols = [DOF_NAMES.index(d) for d in self.dofs]
@@ -575,10 +652,13 @@ class ServoLoop:
         roi0 = roi_corners(roi)
         desired = r.transfer(flag0, self.flag_desired, roi0)
         controller = self._controller(self._pinhole(desired), goal, roi)
-        near_goal = None
-        if self.config.near_goal_inset_px is not None:  # the grown box checked now: a run that cannot switch says so
-            grown = self._template_box(outline, self.config.near_goal_inset_px, "near_goal_inset_px")
-            near_goal = Template(grown, roi_corners(grown), self.config.near_goal_inset_px,
+        near_goal, growth = None, res.near_goal
+        if growth == NEAR_GOAL_AUTO:
+            growth, self.near_goal_off = near_goal_growth(outline, self.scenario.camera)
+        self.near_goal_growth = growth
+        if growth is not None:  # the grown box checked now: a run that cannot switch says so
+            grown = self._template_box(outline, growth, "near_goal_inset_px")
+            near_goal = Template(grown, roi_corners(grown), growth,
                                  r.transfer(flag0, self.flag_desired, roi_corners(grown)))
         if self.policy is not None:
             try:

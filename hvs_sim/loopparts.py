@@ -24,6 +24,19 @@ TEMPLATE_VIEWS = ("start", "goal")
 # that the template freezes little of the camera's noise (docs/tuning.md)
 GOAL_FRAMES = 64
 NEAR_GOAL_PX = 2.0  # LoopConfig.near_goal_px's default: the features this near s* switch to the grown template
+# LoopConfig.near_goal_inset_px's default: the loop grows the near-goal template itself (near_goal_growth)
+NEAR_GOAL_AUTO = "auto"
+NEAR_GOAL_OFF = "off"  # its spelling for one template throughout (None), as the command line gives it
+# the share of the goal image the automatic near-goal template covers: the target's outline grown alike on every
+# side until its box holds this much of the image. With the 15 cm target at 0.8 m that is 94 px (the −90 px the
+# pose bound's benchmarks were first run with); a fixed −90 px took the 30 cm target's box to 42 % of the image and
+# its loop ended 1.4 mm off, and a third of the image was worse for the 15 cm target (docs/tuning.md)
+NEAR_GOAL_AREA = 0.25
+NEAR_GOAL_MIN_GROWTH_PX = 8  # a box that can grow less than this adds too little: the loop keeps one template
+# LoopConfig.near_goal_scale's default for a built-in tracker: its features on the near-goal template cost what the
+# template's area does; at 0.25 the robot camera's loop ended closer than at the tracker's own 0.5 (0.49 / 0.42 mm
+# against 0.67 / 0.51 mm on the servo benchmark) with the tracker's median step 29 ms against 43 ms
+NEAR_GOAL_SCALE = 0.25
 
 
 @dataclass(frozen=True)
@@ -38,6 +51,11 @@ class ResolvedLoop:
     goal_frames: int | None  # frames averaged into the goal image: None with a start template, 1 for the oracle
     # the template's inset (px); None: decided at step 0 from the target's box in the goal image (default_inset)
     roi_inset_px: int | None
+    # the near-goal template's growth (LoopConfig.near_goal_inset_px): a number, NEAR_GOAL_AUTO (decided at step 0 by
+    # near_goal_growth) or None (one template); near_goal_off: why NEAR_GOAL_AUTO does not apply to this run
+    near_goal: int | str | None = None
+    near_goal_off: str | None = None
+    near_goal_scale: float | None = None  # the working scale of the second tracker built for it (None: the loop's own)
 
 
 @dataclass

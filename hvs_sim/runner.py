@@ -68,7 +68,7 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
                           joint_names=[j.name for j in getattr(rig, "joints", [])] if scenario.mount == "arm" else (),
                           target=target_frame(loop.scene.target_corners_world()),
                           distortion=scenario.camera.sensor.distortion, name=Path(mcap).name)
-    stats = RunStats(config)
+    stats = RunStats(config, loop.near_goal_plan)
     picks = FramePicks(config.steps) if figures else None
     records: list[StepRecord] = []
     csv_file = steps_csv = None

@@ -22,9 +22,11 @@ class RunStats:
     """A run's summary, accumulated step by step in arrays sized for `config.steps` when the run starts,
     so that memory does not grow with the steps taken (a 100 000-step run keeps no records)."""
 
-    def __init__(self, config):
+    def __init__(self, config, near_goal=None):
+        """near_goal: the loop's near_goal_plan (called with the switch step at summary time); None: the summary
+        tells the near-goal template from the config and the records."""
         n = config.steps
-        self.config, self.n = config, 0
+        self.config, self.n, self.near_goal = config, 0, near_goal
         self.time, self.error_px, self.tracker_error_px, self.occlusion = (np.full(n, np.nan) for _ in range(4))
         self.controlled = np.full((n, 2), np.nan)
         self.mode = np.zeros(n, np.int8)
@@ -34,6 +36,7 @@ class RunStats:
         self.saturated = self.limit_blocked = self.out_of_view = self.filter_restarts = 0
         self.path_m = 0.0
         self.switched_at: int | None = None  # the first step on another template than step 0's (near_goal)
+        self.switched_inset: int | None = None  # that template's inset (px)
         self.max_condition: float | None = None
         self.min_rank: int | None = None
         self.first = None  # StepRecord
@@ -58,7 +61,7 @@ class RunStats:
         if self.last is not None:
             self.path_m += float(np.linalg.norm(r.camera.t - self.last.camera.t))
             if self.switched_at is None and r.template != self.first.template:
-                self.switched_at = r.step
+                self.switched_at, self.switched_inset = r.step, r.template[1]
         if r.condition is not None:
             self.max_condition = max(self.max_condition or 0.0, r.condition)
         if r.rank is not None:
@@ -153,11 +156,7 @@ class RunStats:
             "pipeline": config.pipeline,
             "template_from": self.first.template[0],
             "roi_inset_px": self.first.template[1],
-            "near_goal": None if config.near_goal_inset_px is None else {
-                "inset_px": config.near_goal_inset_px, "within_px": config.near_goal_within_px,
-                "scale": config.near_goal_scale,
-                "switched_at_step": self.switched_at,
-                "note": "the step from which the grown template's corners were the features (null: never switched)"},
+            "near_goal": self._near_goal(),
             "goal_frames": self.first.template[2],
             "feature_filter": self.first.feature_filter,
             "feature_filter_restarts": self.filter_restarts,
@@ -201,6 +200,19 @@ class RunStats:
             "timing": timing,
             "steps_per_second": float(1e3 / np.mean(self.step_ms[:n])),
         }
+
+
+    def _near_goal(self) -> dict | None:
+        if self.near_goal is not None:
+            return self.near_goal(self.switched_at)
+        c = self.config
+        if c.near_goal_inset_px is None:
+            return None
+        return {"inset_px": self.switched_inset if isinstance(c.near_goal_inset_px, str) else c.near_goal_inset_px,
+                "auto": isinstance(c.near_goal_inset_px, str), "within_px": c.near_goal_within_px,
+                "scale": c.near_goal_scale, "switched_at_step": self.switched_at,
+                "note": "from the records: the step from which the grown template's corners were the features (null: "
+                        "never switched)"}
 
 
 def summarize_run(records: list, config) -> dict:

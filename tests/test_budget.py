@@ -126,13 +126,24 @@ def test_budget_bounds_the_near_goal_template_and_refuses_one_that_runs_off_the_
     """`--near-goal-inset`: the bound on the grown template the loop tracks at the goal, far tighter than on the
     default one (its pixels pin the weak directions); a growth that leaves the image is a clear error."""
     out = tmp_path / "b"
-    assert main(["budget", "--camera", "robot_cell", "--bound-only", "--out", str(tmp_path / "a")]) == 0
+    assert main(["budget", "--camera", "robot_cell", "--bound-only", "--near-goal-inset", "off", "--out",
+                 str(tmp_path / "a")]) == 0
     small = json.loads((tmp_path / "a" / "budget.json").read_text())["rows"][0]
     assert main(["budget", "--camera", "robot_cell", "--bound-only", "--near-goal-inset", "-90", "--out", str(out)]) == 0
-    assert "grown 90 px" in capsys.readouterr().out
+    assert "288×252 (-90)" in capsys.readouterr().out
     data = json.loads((out / "budget.json").read_text())
     grown = data["rows"][0]
     assert data["near_goal_inset_px"] == -90 and grown["template_inset_px"] == -90 and small["template_inset_px"] == 8
+    # the default: the loop's automatic near-goal template, a quarter of the image
+    assert main(["budget", "--camera", "robot_cell", "--bound-only", "--out", str(tmp_path / "e")]) == 0
+    auto = json.loads((tmp_path / "e" / "budget.json").read_text())
+    assert auto["near_goal_inset_px"] == "auto" and auto["rows"][0]["template_inset_px"] < -80
+    assert auto["rows"][0]["template_px"][0] * auto["rows"][0]["template_px"][1] <= 0.25 * 640 * 480
+    # a target that fills a quarter of the image already: the default template, and why
+    assert main(["budget", "--camera", "robot_cell", "--bound-only", "--standoff", "0.4", "--target-width", "0.3",
+                 "--out", str(tmp_path / "f")]) == 0
+    row = json.loads((tmp_path / "f" / "budget.json").read_text())["rows"][0]
+    assert row["template_inset_px"] == 8 and "already holds" in row["near_goal_off"]
     assert grown["template_px"][0] == small["template_px"][0] + 196  # 8 px inside the outline → 90 px beyond it
     assert grown["pixels"] > 10 * small["pixels"]
     assert 0 < grown["filtered_mm"] < 0.2 * small["filtered_mm"]

@@ -2,6 +2,7 @@
 the first frame (`Tracker.seed`), the template inset from the target's outline, and the scene posed for the capture."""
 
 import math
+from types import SimpleNamespace
 
 import cv2
 import numpy as np
@@ -11,7 +12,16 @@ from sklearn.datasets import load_sample_image
 from hvs_sim.cli import main
 from hvs_sim.control.ibvs import IBVSConfig
 from hvs_sim.errors import ConfigError, InputError, StateError
-from hvs_sim.loop import GOAL_FRAMES, GOAL_ROI_INSET_PX, LoopConfig, ServoLoop, summarize_run
+from hvs_sim.loop import (
+    GOAL_FRAMES,
+    GOAL_ROI_INSET_PX,
+    LoopConfig,
+    ServoLoop,
+    box_in_view,
+    near_goal_growth,
+    summarize_run,
+)
+from hvs_sim.loopparts import NEAR_GOAL_AREA, NEAR_GOAL_SCALE
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 from hvs_sim.scene.world import Scene
@@ -198,18 +208,18 @@ def test_the_near_goal_template_may_be_tracked_at_a_coarser_working_scale():
     for bad in (0, 1.5, True):
         with pytest.raises(ConfigError, match="near_goal_scale"):
             LoopConfig(near_goal_inset_px=-90, near_goal_scale=bad)
-    with pytest.raises(ConfigError, match="give near_goal_inset_px too"):
-        LoopConfig(near_goal_scale=0.25)
+    with pytest.raises(ConfigError, match="near_goal_inset_px=None turns off"):
+        LoopConfig(near_goal_inset_px=None, near_goal_scale=0.25)
 
 
 def test_the_near_goal_template_is_refused_where_it_cannot_apply():
-    for bad in (0, 5, -401, 2.5):
+    for bad in (0, 5, -401, 2.5, "grown", ""):
         with pytest.raises(ConfigError, match="near_goal_inset_px"):
             LoopConfig(near_goal_inset_px=bad)
     with pytest.raises(ConfigError, match="grows the first one already"):
         LoopConfig(near_goal_inset_px=-90, roi_inset_px=-10)
-    with pytest.raises(ConfigError, match="give near_goal_inset_px too"):
-        LoopConfig(near_goal_px=3.0)
+    with pytest.raises(ConfigError, match="near_goal_inset_px=None turns off"):
+        LoopConfig(near_goal_inset_px="off", near_goal_px=3.0)
     with pytest.raises(ConfigError, match="near_goal_px"):
         LoopConfig(near_goal_inset_px=-90, near_goal_px=0.0)
     sc = make_scenario("clear", mount="arm", start_offset=TILTED)
@@ -221,7 +231,8 @@ def test_the_near_goal_template_is_refused_where_it_cannot_apply():
         list(ServoLoop(sc, "hybrid", LoopConfig(steps=1, keep_frames=False, near_goal_inset_px=-250),
                        warp="homography"))
     assert main(["bench", "track", "--near-goal-inset", "-90"]) == 2
-    assert main(["run", "--near-goal-px", "3", "--steps", "1"]) == 2
+    assert main(["run", "--near-goal-inset", "off", "--near-goal-px", "3", "--steps", "1"]) == 2
+    assert main(["run", "--near-goal-inset", "grown", "--steps", "1"]) == 2  # argparse: auto, off or a number
     with pytest.raises(ConfigError, match="depth='true'"):  # IBVS would be given the target's corners' depths
         ServoLoop(sc, "hybrid", LoopConfig(steps=1, near_goal_inset_px=-90, ibvs=IBVSConfig(depth="true")),
                   warp="homography")
@@ -234,6 +245,41 @@ def test_the_near_goal_template_is_refused_where_it_cannot_apply():
     with pytest.raises(ConfigError, match="a negative --roi-inset"):
         ServoBenchConfig(trackers=("ground_truth",), roi_inset_px=-90)
     ServoBenchConfig(trackers=("hybrid:homography", "hybrid:homography/pbvs"), near_goal_inset_px=-90)
+
+
+def test_the_automatic_near_goal_template_grows_the_targets_box_to_a_third_of_the_image_where_it_has_room():
+    cam = SimpleNamespace(width=640, height=480)
+    growth, why = near_goal_growth((266, 204, 108, 72), cam)  # the 15 cm target at 0.8 m
+    assert why is None and -110 < growth < -80
+    area = lambda g: (108 - 2 * g) * (72 - 2 * g) / (640 * 480)
+    assert area(growth) <= NEAR_GOAL_AREA < area(growth - 1)  # as far as a quarter of the image, not further
+    near_edge, _ = near_goal_growth((60, 204, 108, 72), cam)  # room for 58 px on the left only
+    assert growth < -60 < near_edge < -50 and box_in_view(inset_roi((60, 204, 108, 72), near_edge), cam)
+    assert near_goal_growth((100, 80, 440, 320), cam)[1].startswith("the target's box already holds 46%")
+    assert "no room" in near_goal_growth((5, 204, 108, 72), cam)[1]
+    assert LoopConfig(near_goal_inset_px="off").near_goal_inset_px is None
+
+
+def test_the_loop_switches_to_the_automatic_near_goal_template_by_default_where_it_tracks_a_goal_template():
+    sc = make_scenario("clear", mount="arm", start_offset=(0.002, 0.001, 0.0, 0.0, 0.0, 0.0))
+    cfg = LoopConfig(steps=3, keep_frames=False)  # the default: NEAR_GOAL_AUTO
+    loop = ServoLoop(sc, "hybrid", cfg, warp="homography")
+    _, corners = loop.goal_image()
+    growth, _ = near_goal_growth(roi_from_corners(corners), sc.camera)
+    recs = list(loop)
+    assert [r.template[1] for r in recs] == [GOAL_ROI_INSET_PX, growth, growth]
+    assert loop.tracker.aligner.config.scale == NEAR_GOAL_SCALE  # the second tracker, at the near-goal scale
+    assert all(r.mode == "align" and r.tracker_error_px < 0.5 for r in recs), [(r.mode, r.tracker_error_px) for r in recs]
+    plan = loop.near_goal_plan(1)
+    assert plan["auto"] and plan["inset_px"] == growth and plan["off"] is None and plan["scale"] == NEAR_GOAL_SCALE
+    # where it cannot apply it stays off and says why; a number there is refused (above)
+    oracle = ServoLoop(sc, "ground_truth", LoopConfig(steps=1, keep_frames=False))
+    list(oracle)
+    assert oracle.near_goal_plan(None)["off"] == "tracker 'ground_truth' has no template"
+    start = ServoLoop(sc, "hybrid", LoopConfig(steps=1, keep_frames=False, template_from="start"), warp="homography")
+    assert start.near_goal_tracker is None and "first frame" in start.resolved.near_goal_off
+    assert ServoLoop(sc, "hybrid", LoopConfig(steps=1, near_goal_inset_px=None), warp="homography").near_goal_plan(None) \
+        is None
 
 
 def test_the_template_view_and_inset_default_to_the_goal_for_six_dof_tracking_only():

@@ -35,11 +35,10 @@ from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
 from hvs_sim.control.ibvs import interaction_matrix
 from hvs_sim.errors import ConfigError, InputError
 from hvs_sim.geometry import offset_pose
-from hvs_sim.loop import GOAL_ROI_INSET_PX, MAX_TEMPLATE_GROWTH_PX, box_in_view
-from hvs_sim.loopparts import GOAL_FRAMES
+from hvs_sim.loop import GOAL_ROI_INSET_PX, LoopConfig, box_in_view, near_goal_growth
+from hvs_sim.loopparts import GOAL_FRAMES, NEAR_GOAL_AUTO, NEAR_GOAL_SCALE
 from hvs_sim.tracking.frames import inset_roi, roi_corners, roi_from_corners
 from hvs_sim.tracking.warp import perspective_transform
-from hvs_sim.validate import check_number
 
 GREY = np.array([0.299, 0.587, 0.114])  # the trackers' grey (OpenCV's RGB→grey weights)
 FIGURE_STANDOFFS = (0.5, 0.65, 0.8, 1.0, 1.2)  # m: the figure's accuracy against standoff ...
@@ -63,9 +62,10 @@ def filter_frames(alpha: float = FEATURE_FILTER_ALPHA) -> float:
     return (2.0 - alpha) / alpha
 
 
-def goal_view(scenario, inset: int = GOAL_ROI_INSET_PX):
-    """(clean frame uint8, its per-pixel grey variance, K, template ROI) of the camera held at the reference pose; the
-    template `inset` px inside the target's outline (negative: grown beyond it, LoopConfig.near_goal_inset_px)."""
+def goal_view(scenario, near_goal: int | str | None = None):
+    """(clean frame uint8, its per-pixel grey variance, K, template ROI, its inset, why it is not grown) of the camera
+    held at the reference pose; the template the loop tracks at the goal with LoopConfig.near_goal_inset_px =
+    `near_goal` (near_goal_inset)."""
     from hvs_sim.camera_model import encode
     from hvs_sim.render.renderer import Renderer
     from hvs_sim.scene.world import Scene
@@ -80,7 +80,20 @@ def goal_view(scenario, inset: int = GOAL_ROI_INSET_PX):
     clean = encode(linear * np.float32(gain))
     var = output_variance(model, linear, gain) + jpeg_variance(clean, model.jpeg_quality)
     grey_var = (var * GREY ** 2).sum(axis=2)
-    return clean, grey_var, r.K, template_roi(corners, scenario.standoff, inset, scenario.camera)
+    template_roi(corners, scenario.standoff)  # the loop's first template, which brings the camera near: trackable?
+    inset, why = near_goal_inset(corners, scenario.camera, near_goal)
+    return clean, grey_var, r.K, template_roi(corners, scenario.standoff, inset, scenario.camera), inset, why
+
+
+def near_goal_inset(corners: np.ndarray, camera, near_goal: int | str | None) -> tuple[int, str | None]:
+    """The inset of the template the loop tracks at the goal (the target's corners there, LoopConfig's
+    near_goal_inset_px): the grown one's (negative), or GOAL_ROI_INSET_PX and why where there is none."""
+    if near_goal is None:
+        return GOAL_ROI_INSET_PX, None
+    if near_goal != NEAR_GOAL_AUTO:
+        return int(near_goal), None
+    growth, why = near_goal_growth(roi_from_corners(corners), camera)
+    return (GOAL_ROI_INSET_PX, why) if growth is None else (growth, None)
 
 
 def template_roi(corners: np.ndarray, standoff: float, inset: int = GOAL_ROI_INSET_PX,
@@ -145,6 +158,8 @@ class Budget:
     # px the template lies inside the target's outline: the loop's GOAL_ROI_INSET_PX, or negative, the near-goal
     # template grown beyond it (LoopConfig.near_goal_inset_px), which the loop tracks at the goal
     template_inset_px: int = GOAL_ROI_INSET_PX
+    near_goal: int | str | None = NEAR_GOAL_AUTO  # LoopConfig.near_goal_inset_px as asked: the episodes run with it
+    near_goal_off: str | None = None  # why NEAR_GOAL_AUTO grew no template here (the default one is tracked)
 
     @property
     def closed_loop_median_mm(self) -> float | None:
@@ -153,7 +168,8 @@ class Budget:
     def row(self) -> dict:
         return {"camera": self.camera, "target": self.target, "target_width_m": self.target_width_m,
                 "standoff_m": self.standoff_m, "template_px": list(self.template_px),
-                "template_inset_px": self.template_inset_px,
+                "template_inset_px": self.template_inset_px, "near_goal": self.near_goal,
+                "near_goal_off": self.near_goal_off,
                 "noise_levels": self.noise_levels, "pixels": self.one_frame.pixels,
                 "one_frame_mm": self.one_frame.translation_mm, "one_frame_deg": self.one_frame.rotation_deg,
                 "filtered_mm": self.filtered.translation_mm, "filtered_deg": self.filtered.rotation_deg,
@@ -175,17 +191,16 @@ def budget_scenario(camera: str, standoff: float, supersample: int = 1, **scene)
                          standoff=standoff, **scene)
 
 
-def budget(camera: str = "phone_handheld", standoff: float = 0.8, near_goal_inset_px: int | None = None,
+def budget(camera: str = "phone_handheld", standoff: float = 0.8, near_goal_inset_px: int | str | None = NEAR_GOAL_AUTO,
            **scene) -> Budget:
     """The bound for a camera preset and a target (make_scenario's target and arm settings) at a standoff, on the
-    template the loop tracks at the goal: the default one, or with `near_goal_inset_px` (negative) the grown one the
-    loop switches to there; `estimate` adds what the loop reaches."""
+    template the loop tracks at the goal with LoopConfig.near_goal_inset_px = `near_goal_inset_px`: the grown one it
+    switches to there (NEAR_GOAL_AUTO, the loop's default, or a negative growth), or with None its one template;
+    `estimate` adds what the loop reaches."""
     sensor = sensor_preset(camera)
-    if near_goal_inset_px is not None:
-        check_number("near_goal_inset_px", near_goal_inset_px, -MAX_TEMPLATE_GROWTH_PX, -1, integer=True)
-    inset = GOAL_ROI_INSET_PX if near_goal_inset_px is None else near_goal_inset_px
+    near_goal = LoopConfig(near_goal_inset_px=near_goal_inset_px).near_goal_inset_px  # checked ("off" as None)
     scen = budget_scenario(camera, standoff, **scene)
-    clean, grey_var, K, roi = goal_view(scen, inset)
+    clean, grey_var, K, roi, inset, why = goal_view(scen, near_goal)
     x0, y0, w, h = roi
     patch = grey_var[y0:y0 + h, x0:x0 + w]
     if not np.isfinite(patch).any():
@@ -194,7 +209,7 @@ def budget(camera: str = "phone_handheld", standoff: float = 0.8, near_goal_inse
     n = filter_frames()
     return Budget(sensor.name, scen.target_label, scen.target_width, standoff, (w, h),
                   float(np.sqrt(np.median(patch[np.isfinite(patch)]))), one, one.scaled(n), one.scaled(GOAL_FRAMES), n,
-                  template_inset_px=inset)
+                  template_inset_px=inset, near_goal=near_goal, near_goal_off=why)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -217,10 +232,11 @@ class Measured:
         return dataclasses.asdict(self)
 
 
-def _goal_tracker(goal: np.ndarray, roi):
+def _goal_tracker(goal: np.ndarray, roi, inset: int):
+    """The loop's tracker on the template: on a grown one at the working scale the loop tracks it at (NEAR_GOAL_SCALE)."""
     from hvs_sim.tracking import make_tracker
 
-    tracker = make_tracker(BUDGET_TRACKER, warp=BUDGET_WARP)
+    tracker = make_tracker(BUDGET_TRACKER, warp=BUDGET_WARP, **({"scale": NEAR_GOAL_SCALE} if inset < 0 else {}))
     tracker.init(goal, roi)
     return tracker
 
@@ -254,7 +270,7 @@ def measure(scenario, hold_frames: int = HOLD_FRAMES, near_poses: int = NEAR_POS
         roi0 = roi_corners(roi)
         U, Vt, mm = weak_directions(teacher.K, roi0, scenario.standoff)
         camera = Renderer(scene, people=False)
-        tracker = _goal_tracker(goal, roi)
+        tracker = _goal_tracker(goal, roi, inset)
         tracker.seed(np.eye(3))
         held, unaligned = [], 0
         for _ in range(hold_frames):
@@ -269,7 +285,7 @@ def measure(scenario, hold_frames: int = HOLD_FRAMES, near_poses: int = NEAR_POS
     r = Renderer(clean, people=False)
     with clean.posed(q0):
         goal, c0 = r.rgb(), r.ground_truth(occlusion=False).corners
-    tracker = _goal_tracker(goal, roi)
+    tracker = _goal_tracker(goal, roi, inset)
     ref = clean.reference_pose()
     rng = np.random.default_rng([seed, 35])
     near, offsets = [], []
@@ -308,9 +324,9 @@ def predict(m: Measured, frames: float) -> float | None:
 
 
 def closed_loop(camera: str, standoff: float, episodes: int, progress=None, seed0: int = EPISODE_SEED0,
-                supersample: int = 1, near_goal_inset_px: int | None = None, **scene) -> list[dict]:
+                supersample: int = 1, near_goal_inset_px: int | str | None = NEAR_GOAL_AUTO, **scene) -> list[dict]:
     """`episodes` servo runs of the loop's tracker on six DOF from the servo benchmark's `clear` start poses (seeds
-    seed0…), each as long as the benchmark's (with the near-goal template when `near_goal_inset_px` is given); their
+    seed0…), each as long as the benchmark's (with LoopConfig.near_goal_inset_px = `near_goal_inset_px`); their
     final pose errors. `progress(k)` after each."""
     from hvs_sim.bench.servo import EXTRA_STEPS, episode_scenario
     from hvs_sim.loop import LoopConfig
@@ -338,8 +354,7 @@ def closed_loop(camera: str, standoff: float, episodes: int, progress=None, seed
 def estimate(b: Budget, episodes: int, progress=None, **scene) -> Budget:
     """`b` with the tracker measured, the prediction, and `episodes` closed-loop runs (0: none)."""
     m = measure(budget_scenario(b.camera, b.standoff_m, **scene), inset=b.template_inset_px)
-    near_goal = b.template_inset_px if b.template_inset_px < 0 else None
-    runs = closed_loop(b.camera, b.standoff_m, episodes, progress, near_goal_inset_px=near_goal, **scene)
+    runs = closed_loop(b.camera, b.standoff_m, episodes, progress, near_goal_inset_px=b.near_goal, **scene)
     return dataclasses.replace(b, measured=m, predicted_mm=predict(m, b.filter_frames), closed_loop=tuple(runs))
 
 
@@ -371,14 +386,14 @@ def table(rows: list[Budget]) -> str:
              "filtered, ~N frames (mm / °) | goal-template floor (mm / °) |"), "|---|---|---|---|---|---|---|---|---|"]
     for b in rows:
         lines.append(f"| {b.camera} | {b.target} | {b.target_width_m:g} | {b.standoff_m:g} | "
-                     f"{b.template_px[0]}×{b.template_px[1]} | {b.noise_levels:.2f} | "
+                     f"{b.template_px[0]}×{b.template_px[1]} ({b.template_inset_px:+d}) | {b.noise_levels:.2f} | "
                      f"{b.one_frame.translation_mm:.3f} / {b.one_frame.rotation_deg:.4f} | "
                      f"{b.filtered.translation_mm:.3f} / {b.filtered.rotation_deg:.4f} (N {b.filter_frames:.0f}) | "
                      f"{b.template_floor.translation_mm:.3f} / {b.template_floor.rotation_deg:.4f} |")
     return "\n".join(lines) + "\n"
 
 
-def figure(camera: str, path, near_goal_inset_px: int | None = None, **scene) -> dict:
+def figure(camera: str, path, near_goal_inset_px: int | str | None = NEAR_GOAL_AUTO, **scene) -> dict:
     """Accuracy (filtered bound, mm) against standoff for FIGURE_WIDTHS target widths, on the template `budget` takes
     with `near_goal_inset_px`; returns the numbers (a point where the template is too small or runs off the image is
     left out)."""
@@ -403,7 +418,8 @@ def figure(camera: str, path, near_goal_inset_px: int | None = None, **scene) ->
             ax.plot(*zip(*pts, strict=True), marker="o", label=f"target {100 * width:.0f} cm wide")
     ax.set(yscale="log", xlabel="standoff (m)", ylabel="pose bound, translation 1-σ (mm)",
            title=f"{camera}: Cramér–Rao bound after the feature filter"
-                 + ("" if near_goal_inset_px is None else f"\n(template grown {-near_goal_inset_px} px)"))
+                 + ("" if near_goal_inset_px is None else "\n(the near-goal template, grown to a quarter of the image)"
+                    if near_goal_inset_px == NEAR_GOAL_AUTO else f"\n(template grown {-near_goal_inset_px} px)"))
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()
     fig.tight_layout()

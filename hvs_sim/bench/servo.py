@@ -26,6 +26,7 @@ from hvs_sim.bench.suites import TILT_MAX_DEG
 from hvs_sim.camera_model import BLUR_MODES, REALISTIC_PRESET
 from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.loop import LoopConfig
+from hvs_sim.loopparts import NEAR_GOAL_AUTO
 from hvs_sim.outputs import write_atomic
 from hvs_sim.provenance import code_provenance
 from hvs_sim.validate import check_number
@@ -61,7 +62,8 @@ class ServoBenchConfig:
     damping: float | None = None  # IBVSConfig.damping of every episode (None: the loop's default)
     template_from: str | None = None  # LoopConfig.template_from of every episode (None: the loop's default)
     roi_inset_px: int | None = None  # LoopConfig.roi_inset_px of every episode (None: the loop's default)
-    near_goal_inset_px: int | None = None  # LoopConfig.near_goal_inset_px of every episode (None: one template)
+    # LoopConfig.near_goal_inset_px of every episode (NEAR_GOAL_AUTO: the loop's default; None or "off": one template)
+    near_goal_inset_px: int | str | None = NEAR_GOAL_AUTO
     near_goal_scale: float | None = None  # LoopConfig.near_goal_scale of every episode
     goal_frames: int | None = None  # LoopConfig.goal_frames of the episodes with a goal template (None: the loop's default)
     feature_filter: float | None = None  # LoopConfig.feature_filter of the episodes with tracked corners (None: default)
@@ -122,13 +124,15 @@ class ServoBenchConfig:
         check_number("tilt_deg", self.tilt_deg, 0, TILT_MAX_DEG)
         if self.damping is not None:
             check_number("damping", self.damping, 0, 1)
-        LoopConfig(template_from=self.template_from, roi_inset_px=self.roi_inset_px, goal_frames=self.goal_frames,
-                   feature_filter=self.feature_filter, near_goal_inset_px=self.near_goal_inset_px,
-                   near_goal_scale=self.near_goal_scale)  # checks them
+        loop = LoopConfig(template_from=self.template_from, roi_inset_px=self.roi_inset_px, goal_frames=self.goal_frames,
+                          feature_filter=self.feature_filter, near_goal_inset_px=self.near_goal_inset_px,
+                          near_goal_scale=self.near_goal_scale)  # checks them
+        object.__setattr__(self, "near_goal_inset_px", loop.near_goal_inset_px)  # "off" as None
         if self.goal_frames is not None and self.template_from == "start":
             raise ConfigError(f"goal_frames ({self.goal_frames}) averages frames into a goal image; with template_from "
                               "'start' no episode has one: leave one of them out")
-        grown = [flag for flag, on in (("--near-goal-inset", self.near_goal_inset_px is not None),
+        explicit = self.near_goal_inset_px not in (None, NEAR_GOAL_AUTO)  # auto applies where it can, by itself
+        grown = [flag for flag, on in (("--near-goal-inset", explicit),
                                        ("a negative --roi-inset", (self.roi_inset_px or 0) < 0)) if on]
         if grown:  # a grown template needs a tracked goal template: refused before any episode, not in the middle
             for m in self.trackers:

@@ -8,6 +8,7 @@ import json
 from pathlib import Path
 
 from hvs_sim.cli.common import HelpFormatter, _given, _provenance, add_blur_argument, camera_model
+from hvs_sim.cliargs import near_goal_inset
 from hvs_sim.errors import ConfigError
 from hvs_sim.outputs import fresh_out_dir, write_atomic
 
@@ -270,11 +271,11 @@ def add_bench_parser(sub) -> None:
                    help="servo only: cut the template this many pixels inside the target's outline (as `run "
                         "--roi-inset`; default: 8 with a goal template, 0 with a start one; negative: grow it into "
                         "the target's coplanar surroundings)")
-    p.add_argument("--near-goal-inset", type=int, default=None, metavar="PX",
-                   help="servo only: switch each episode's tracker to a second goal template grown PX (negative) "
-                        "beyond the target's outline near the goal (as `run --near-goal-inset`)")
+    p.add_argument("--near-goal-inset", type=near_goal_inset, default=None, metavar="auto|off|PX",
+                   help="servo only: the near-goal template of each episode (as `run --near-goal-inset`; default "
+                        "auto)")
     p.add_argument("--near-goal-scale", type=float, default=None, metavar="S",
-                   help="servo only: the working scale of the tracker on the --near-goal-inset template (as `run "
+                   help="servo only: the working scale of the tracker on the near-goal template (as `run "
                         "--near-goal-scale`)")
     p.add_argument("--goal-frames", type=int, default=None, metavar="N",
                    help=f"servo only: frames averaged into the goal image (as `run --goal-frames`; default {GOAL_FRAMES} with a goal "

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from hvs_sim.cli.common import HelpFormatter, _target_overrides
 from hvs_sim.cli.run import cmd_run
-from hvs_sim.cliargs import DEFAULT_TRACKER
+from hvs_sim.cliargs import DEFAULT_TRACKER, near_goal_inset
 from hvs_sim.errors import ConfigError
 from hvs_sim.outputs import fresh_out_dir, prepare_out_dir, write_atomic
 from hvs_sim.scene.arms import DEFAULT_ARM
@@ -51,7 +51,8 @@ def cmd_budget(args) -> int:
     scene = _target_overrides(args)
     if args.arm is not None:
         scene["arm"] = args.arm
-    rows = [b.budget(cam, args.standoff, args.near_goal_inset, **scene)  # before --out is cleared
+    near_goal = "auto" if args.near_goal_inset is None else args.near_goal_inset
+    rows = [b.budget(cam, args.standoff, near_goal, **scene)  # before --out is cleared
             for cam in dict.fromkeys(args.camera)]
     if not args.bound_only:
         done = []
@@ -63,17 +64,17 @@ def cmd_budget(args) -> int:
             done.append(b.estimate(row, args.episodes, progress, **scene))
         rows = done
     out = fresh_out_dir(args.out, args.overwrite, ("budget.json", "budget.md", "budget.png"))
-    text = ("The pose bound (translation / rotation, 1-σ)"
-            + ("" if args.near_goal_inset is None else f" on the near-goal template, grown {-args.near_goal_inset} px "
-               "beyond the target's outline") + ":\n\n" + b.table(rows))
+    text = ("The pose bound (translation / rotation, 1-σ) on the template the loop tracks at the goal (template "
+            "px; its inset, negative where the loop switches to a template grown beyond the target's outline):\n\n"
+            + b.table(rows))
     if not args.bound_only:
         text += ("\nWhat the loop reaches (`hybrid:homography`, six DOF), along the two directions the pose is weakest "
                  "in (sideways shift traded against tilt), weakest first:\n\n" + b.estimate_table(rows))
-    curves = b.figure(rows[0].camera, out / "budget.png", args.near_goal_inset,
+    curves = b.figure(rows[0].camera, out / "budget.png", rows[0].near_goal,  # as budget read it ("off": None)
                       **{k: v for k, v in scene.items() if k != "target_width"})
     write_atomic(out / "budget.md", text)
     write_atomic(out / "budget.json", json.dumps({"rows": [r.row() for r in rows], "figure_camera": rows[0].camera,
-                                                  "arm": args.arm or DEFAULT_ARM, "near_goal_inset_px": args.near_goal_inset,
+                                                  "arm": args.arm or DEFAULT_ARM, "near_goal_inset_px": rows[0].near_goal,
                                                   "episodes": 0 if args.bound_only else args.episodes,
                                                   "figure_mm_by_width": curves, "note": b.__doc__.strip()}, indent=2))
     print(text, end="")
@@ -143,9 +144,9 @@ def add_budget_parser(sub) -> None:
     p.add_argument("--episodes", type=int, default=None,
                    help=f"closed-loop servo episodes per camera (the servo benchmark's clear start poses; 0 = none; "
                         f"default {BUDGET_EPISODES})")
-    p.add_argument("--near-goal-inset", type=int, default=None, metavar="PX",
-                   help="the template the loop switches to near the goal, grown PX (negative) beyond the target's "
-                        "outline (as `run --near-goal-inset`): the bound, the measurement and the episodes on it")
+    p.add_argument("--near-goal-inset", type=near_goal_inset, default=None, metavar="auto|off|PX",
+                   help="the template the loop switches to near the goal (as `run --near-goal-inset`; default auto): "
+                        "the bound, the measurement and the episodes on it; off: the loop's one template")
     p.add_argument("--bound-only", action="store_true",
                    help="only the bound: no measurement of the tracker, no episodes (a second or two per camera)")
     p.add_argument("--out", default="out/budget", help="folder for budget.json, budget.md and budget.png")

@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 from hvs_sim.cli.common import EXIT_OUTPUT_FAILED, HelpFormatter, _add_scene_args, _scenario_from_args
-from hvs_sim.cliargs import DEFAULT_TRACKER, add_settings_option, parse_settings
+from hvs_sim.cliargs import DEFAULT_TRACKER, add_settings_option, near_goal_inset, parse_settings
 from hvs_sim.errors import ConfigError
 from hvs_sim.outputs import check_output_file, prepare_out_dir
 
@@ -147,15 +147,18 @@ def add_run_parser(sub) -> None:
                         "with a start template). Negative, with a goal template: grow it that many pixels into the "
                         "target's surroundings, which must lie in its plane (-90: the wall's neighbouring pictures, "
                         "the 6-DOF loop's most precise setting, docs/results.md)")
-    p.add_argument("--near-goal-inset", type=int, default=None, metavar="PX",
-                   help="switch to a second goal template, grown PX (negative) beyond the target's outline, once the "
-                        "tracked corners are within --near-goal-px of the goal's: the default template's robustness "
-                        "from afar, the grown one's precision at the goal (-90 with the built-in wall, docs/results.md)")
+    p.add_argument("--near-goal-inset", type=near_goal_inset, default=None, metavar="auto|off|PX",
+                   help="switch to a second goal template, grown beyond the target's outline, once the tracked corners "
+                        "are within --near-goal-px of the goal's: the default template's robustness from afar, the "
+                        "grown one's precision at the goal. auto (the default): grown to a quarter of the goal image, "
+                        "where the run tracks a goal template and the box has room; off: one template; PX "
+                        "(negative): that growth (docs/results.md, the pose bound)")
     p.add_argument("--near-goal-scale", type=float, default=None, metavar="S",
-                   help="track the --near-goal-inset template at this working scale (the tracker's `scale`, e.g. 0.25: "
-                        "its VGG features cost what its area does; the intensity refinement stays at full resolution)")
+                   help="track the near-goal template at this working scale (a built-in tracker's `scale`; default "
+                        "0.25: its VGG features cost what its area does; the intensity refinement stays at full "
+                        "resolution)")
     p.add_argument("--near-goal-px", type=float, default=None, metavar="PX",
-                   help="mean corner distance to the goal's corners that switches to the --near-goal-inset template "
+                   help="mean corner distance to the goal's corners that switches to the near-goal template "
                         f"(default {NEAR_GOAL_PX})")
     p.add_argument("--feature-filter", type=float, default=None, metavar="ALPHA",
                    help="α of the filter that blends the tracked corners with where the camera's own motion (the "
