@@ -102,7 +102,7 @@ def main() -> None:
     text = "\n".join(lines) + "\n"
     write_atomic(out / "validation.md", text)
     write_atomic(out / "validation.json", json.dumps({"episodes": args.episodes, "standoff_m": STANDOFF,
-                                                      "near_goal_inset_px": args.near_goal_inset,
+                                                      "near_goal_inset_px": rows[0]["budget"]["near_goal"],
                                                       "held_out_seed0": args.held_out_seed0, "tolerance": TOLERANCE,
                                                       "wall_s": time.perf_counter() - t0, "rows": rows}, indent=1))
     print(text, end="")

@@ -260,9 +260,10 @@ def near_goal_growth(outline, camera) -> tuple[int | None, str | None]:
     NEAR_GOAL_MIN_GROWTH_PX: the one template is then nearly all there is to take."""
     x, y, w, h = (int(v) for v in outline)
     share = w * h / (camera.width * camera.height)
-    # (w + 2g)(h + 2g) = NEAR_GOAL_AREA · W · H, the positive root
+    # (w + 2g)(h + 2g) = NEAR_GOAL_AREA · W · H, the positive root; no more than a growth given may be
     g = int(np.floor((-(w + h) + np.sqrt((w + h) ** 2 + 4 * (NEAR_GOAL_AREA * camera.width * camera.height - w * h)))
                      / 4)) if share < NEAR_GOAL_AREA else 0
+    g = min(g, MAX_TEMPLATE_GROWTH_PX)
     if g < NEAR_GOAL_MIN_GROWTH_PX:
         return None, (f"the target's box already holds {share:.0%} of the goal image (the near-goal template grows it "
                       f"to {NEAR_GOAL_AREA:.0%})")
@@ -375,9 +376,11 @@ class ServoLoop:
         c = self.config
         if c.near_goal_inset_px is None:
             return None
+        on = self.near_goal_off is None
         return {"inset_px": self.near_goal_growth, "auto": c.near_goal_inset_px == NEAR_GOAL_AUTO,
-                "within_px": c.near_goal_within_px,
-                "scale": self.resolved.near_goal_scale or getattr(getattr(self.tracker, "config", None), "scale", None),
+                "within_px": c.near_goal_within_px if on else None,
+                "scale": (self.resolved.near_goal_scale or getattr(getattr(self.tracker, "config", None), "scale", None))
+                if on else None,
                 "off": self.near_goal_off, "switched_at_step": switched_at,
                 "note": "the step from which the grown template's corners were the features (null: never switched); "
                         "off: why the run kept one template"}
@@ -447,16 +450,22 @@ class ServoLoop:
         if self.tracker is None:
             why = f"tracker {tracker!r} has no template"
         elif template_from != "goal":
-            why = "this run's template comes from its first frame (give template_from='goal')"
+            why = "this run's template comes from its first frame"
         elif config.ibvs.depth == "true":
             why = ("depth='true' gives IBVS the depths of the target's own corners, and a grown template's corners lie "
-                   "beyond them (leave depth at 'scale')")
+                   "beyond them")
         elif inset is not None and inset < 0:
             why = f"roi_inset_px ({inset}) grows the first template already"
+        elif near == NEAR_GOAL_AUTO and tracker not in TRACKER_NAMES:
+            why = (f"{tracker!r} is an outside tracker: the automatic switch is the built-in trackers' (give "
+                   "near_goal_inset_px a growth to switch it too)")
         if why is not None:
             if near != NEAR_GOAL_AUTO:
                 raise ConfigError(f"near_goal_inset_px ({near}) switches a tracker to a template grown in the goal "
                                   f"image near the goal, but {why}")
+            given = [n for n in ("near_goal_scale", "near_goal_px") if getattr(config, n) is not None]
+            if given:
+                raise ConfigError(f"{given[0]} sets the near-goal template, but this run has none: {why}")
             return None, why, None
         scale = config.near_goal_scale
         # a built-in tracker with a working scale is built again at the near-goal one; any other tracker is its own

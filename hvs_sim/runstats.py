@@ -210,14 +210,17 @@ class RunStats:
             return None
         return {"inset_px": self.switched_inset if isinstance(c.near_goal_inset_px, str) else c.near_goal_inset_px,
                 "auto": isinstance(c.near_goal_inset_px, str), "within_px": c.near_goal_within_px,
-                "scale": c.near_goal_scale, "switched_at_step": self.switched_at,
-                "note": "from the records: the step from which the grown template's corners were the features (null: "
-                        "never switched)"}
+                "scale": c.near_goal_scale, "off": None, "switched_at_step": self.switched_at,
+                "note": "from the records alone (summarize_run without the loop): the step from which the grown "
+                        "template's corners were the features (null: never switched); what the loop resolved (an "
+                        "automatic growth that never switched, the scale, why it was off) is not in them"}
 
 
-def summarize_run(records: list, config) -> dict:
-    """RunStats.summary of a list of records (see there)."""
-    stats = RunStats(dataclasses.replace(config, steps=max(len(records), 1)))
+def summarize_run(records: list, config, loop=None) -> dict:
+    """RunStats.summary of a list of records (see there); `loop`, the ServoLoop that made them, for its near-goal
+    template as it resolved it."""
+    stats = RunStats(dataclasses.replace(config, steps=max(len(records), 1)),
+                     None if loop is None else loop.near_goal_plan)
     for r in records:
         stats.add(r)
     return stats.summary()

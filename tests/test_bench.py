@@ -72,3 +72,14 @@ def test_servo_results_count_the_episodes_that_switched_to_the_near_goal_templat
     never = [dict(e, near_goal=dict(e["near_goal"], switched_at_step=None)) for e in
              json.loads((root / "near_goal" / "summary.json").read_text())["episodes"][:3]]
     assert method_results(never, 1.0)["near_goal_switched"] == 0
+    # the automatic template off for a method (ground truth: no template): no near-goal template to count
+    off = [dict(e, near_goal={"inset_px": None, "auto": True, "off": "tracker 'ground_truth' has no template",
+                              "switched_at_step": None}) for e in never]
+    assert method_results(off, 1.0)["near_goal_switched"] is None
+    assert method_results(off + never[:1], 1.0)["near_goal_switched"] == 0
+    from hvs_sim.bench.servo import ServoBenchConfig
+    from hvs_sim.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="no method here has one"):  # refused before any episode runs
+        ServoBenchConfig(trackers=("ground_truth", "ecc:homography"), near_goal_scale=0.25)
+    ServoBenchConfig(trackers=("ground_truth", "hybrid:homography"), near_goal_scale=0.25)

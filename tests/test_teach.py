@@ -1,6 +1,7 @@
 """Teach-by-showing: the template from the goal image (`LoopConfig.template_from="goal"`), the tracker seeded in
 the first frame (`Tracker.seed`), the template inset from the target's outline, and the scene posed for the capture."""
 
+import json
 import math
 from types import SimpleNamespace
 
@@ -247,7 +248,7 @@ def test_the_near_goal_template_is_refused_where_it_cannot_apply():
     ServoBenchConfig(trackers=("hybrid:homography", "hybrid:homography/pbvs"), near_goal_inset_px=-90)
 
 
-def test_the_automatic_near_goal_template_grows_the_targets_box_to_a_third_of_the_image_where_it_has_room():
+def test_the_automatic_near_goal_template_grows_the_targets_box_to_a_quarter_of_the_image_where_it_has_room():
     cam = SimpleNamespace(width=640, height=480)
     growth, why = near_goal_growth((266, 204, 108, 72), cam)  # the 15 cm target at 0.8 m
     assert why is None and -110 < growth < -80
@@ -280,6 +281,17 @@ def test_the_loop_switches_to_the_automatic_near_goal_template_by_default_where_
     assert start.near_goal_tracker is None and "first frame" in start.resolved.near_goal_off
     assert ServoLoop(sc, "hybrid", LoopConfig(steps=1, near_goal_inset_px=None), warp="homography").near_goal_plan(None) \
         is None
+    with pytest.raises(ConfigError, match="near_goal_scale sets the near-goal template, but this run has none"):
+        ServoLoop(sc, "ground_truth", LoopConfig(steps=1, near_goal_scale=0.25))
+
+
+def test_hvs_sim_run_switches_to_the_near_goal_template_by_default(tmp_path):
+    out = tmp_path / "run.json"
+    assert main(["run", "--warp", "homography", "--start-offset", "0.002,0.001,0,0,0,0", "--steps", "3",
+                 "--no-eval", "--json", str(out)]) == 0
+    near = json.loads(out.read_text())["near_goal"]
+    assert near["auto"] and near["inset_px"] < -80 and near["switched_at_step"] == 1 and near["off"] is None
+    assert near["scale"] == NEAR_GOAL_SCALE
 
 
 def test_the_template_view_and_inset_default_to_the_goal_for_six_dof_tracking_only():

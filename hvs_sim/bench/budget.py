@@ -399,6 +399,7 @@ def figure(camera: str, path, near_goal_inset_px: int | str | None = NEAR_GOAL_A
     left out)."""
     import matplotlib
 
+    near_goal_inset_px = LoopConfig(near_goal_inset_px=near_goal_inset_px).near_goal_inset_px  # checked ("off": None)
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -418,7 +419,7 @@ def figure(camera: str, path, near_goal_inset_px: int | str | None = NEAR_GOAL_A
             ax.plot(*zip(*pts, strict=True), marker="o", label=f"target {100 * width:.0f} cm wide")
     ax.set(yscale="log", xlabel="standoff (m)", ylabel="pose bound, translation 1-σ (mm)",
            title=f"{camera}: Cramér–Rao bound after the feature filter"
-                 + ("" if near_goal_inset_px is None else "\n(the near-goal template, grown to a quarter of the image)"
+                 + ("" if near_goal_inset_px is None else "\n(the near-goal template: a quarter of the image where it fits)"
                     if near_goal_inset_px == NEAR_GOAL_AUTO else f"\n(template grown {-near_goal_inset_px} px)"))
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()

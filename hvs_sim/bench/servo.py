@@ -131,6 +131,11 @@ class ServoBenchConfig:
         if self.goal_frames is not None and self.template_from == "start":
             raise ConfigError(f"goal_frames ({self.goal_frames}) averages frames into a goal image; with template_from "
                               "'start' no episode has one: leave one of them out")
+        if self.near_goal_scale is not None and not any(
+                takes_near_goal_scale(*parse_method(m)[:2], self.template_from) for m in self.trackers):
+            raise ConfigError(f"--near-goal-scale ({self.near_goal_scale}) is the working scale of a built-in tracker on "
+                              "the near-goal template, and no method here has one (a goal template and a tracker with "
+                              "a working scale, e.g. hybrid:homography): leave it out")
         explicit = self.near_goal_inset_px not in (None, NEAR_GOAL_AUTO)  # auto applies where it can, by itself
         grown = [flag for flag, on in (("--near-goal-inset", explicit),
                                        ("a negative --roi-inset", (self.roi_inset_px or 0) < 0)) if on]
@@ -227,6 +232,20 @@ def has_goal_template(tracker: str, warp: str | None, template_from: str | None)
     return tracked and template_view(template_from, warp == "homography") == "goal"
 
 
+def takes_near_goal_scale(tracker: str, warp: str | None, template_from: str | None) -> bool:
+    """Whether a servo method's near-goal template is tracked by a built-in tracker built again at
+    LoopConfig.near_goal_scale (a goal template and a tracker with a working scale)."""
+    from hvs_sim.tracking import TRACKER_NAMES, check_tracker
+
+    if tracker not in TRACKER_NAMES or not has_goal_template(tracker, warp, template_from):
+        return False
+    try:
+        check_tracker(tracker, scale=0.5, **({"warp": warp} if warp else {}))
+    except ConfigError:  # no working scale (ECC)
+        return False
+    return True
+
+
 def episode_scenario(scen_name: str, seed: int, tilt: float = TILT_MAX, **overrides):
     """The episode's scenario with the first drawn start pose that the arm reaches and from which
     the target is fully in view (the same for every method of that seed)."""
@@ -273,7 +292,8 @@ def _episode(args):
                              ibvs=IBVSConfig(damping=damping), template_from=template_from if tracked else None,
                              roi_inset_px=inset, goal_frames=goal_frames if goal_template else None,  # with a goal image
                              feature_filter=alpha if tracked else None,  # ... and with tracked corners
-                             near_goal_inset_px=near_goal, near_goal_scale=near_goal_scale)
+                             near_goal_inset_px=near_goal,  # the scale where the loop's switch can use it
+                             near_goal_scale=near_goal_scale if takes_near_goal_scale(tracker, warp, template_from) else None)
     drawn = time.perf_counter()
     summary, records = run_episode(scen, tracker, loop_config, progress=False, keep_records=keep,
                                    tracker_settings={"warp": warp} if warp else None)
@@ -303,7 +323,9 @@ def method_results(eps: list[dict], success_px: float) -> dict:
     conv = [e["seconds_to_converge"] for e in eps if e["converged"]]
     occ = [e["max_error_px_during_occlusion"] for e in eps if e["max_error_px_during_occlusion"] is not None]
     reacq = [e.get("reacquired") for e in eps if e.get("reacquired") is not None]
-    near = [e.get("near_goal") for e in eps]  # None: one template (LoopConfig.near_goal_inset_px not given)
+    # the near-goal template as each episode had it (None, or inset_px None with the reason: one template)
+    near = [e.get("near_goal") for e in eps]
+    near = [n if n is not None and n.get("inset_px") is not None else None for n in near]
     return {
         "episodes": len(eps), "success": success, "success_rate": success["hvs_sim"]["rate"],
         "reached": rate([e["converged"] for e in eps]), "converged_rate": float(np.mean([e["converged"] for e in eps])),

@@ -55,7 +55,8 @@ def cmd_run(args) -> int:
                         keep_frames=bool(args.rrd or args.spawn or args.figures or args.mcap),
                         template_from=args.template_from,
                         roi_inset_px=args.roi_inset, goal_frames=args.goal_frames,
-                        near_goal_inset_px=args.near_goal_inset, near_goal_px=args.near_goal_px,
+                        near_goal_inset_px="auto" if args.near_goal_inset is None else args.near_goal_inset,
+                        near_goal_px=args.near_goal_px,
                         near_goal_scale=args.near_goal_scale,
                         feature_filter=args.feature_filter)
     summary, _ = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,
