@@ -28,7 +28,7 @@ NEAR_GOAL_PX = 2.0  # LoopConfig.near_goal_px's default: the features this near 
 NEAR_GOAL_AUTO = "auto"
 NEAR_GOAL_OFF = "off"  # its spelling for one template throughout (None), as the command line gives it
 # the share of the goal image the automatic near-goal template covers: the target's outline grown alike on every
-# side until its box holds this much of the image. With the 15 cm target at 0.8 m that is 94 px (the −90 px the
+# side until its box holds this much of the image. With the 15 cm target at 0.8 m that is 93 px (the −90 px the
 # pose bound's benchmarks were first run with); a fixed −90 px took the 30 cm target's box to 42 % of the image and
 # its loop ended 1.4 mm off, and a third of the image was worse for the 15 cm target (docs/tuning.md)
 NEAR_GOAL_AREA = 0.25
