@@ -153,14 +153,12 @@ class LoopConfig:
                 raise ConfigError(f"near_goal_inset_px ({self.near_goal_inset_px}) switches to a grown template near "
                                   f"the goal, but roi_inset_px ({self.roi_inset_px}) grows the first one already: give "
                                   "one of them (or an roi_inset_px ≥ 0)")
+        if self.near_goal_scale is not None:
+            check_number("near_goal_scale", self.near_goal_scale, 0, 1, lo_open=True)
+        if self.near_goal_px is not None:
+            check_number("near_goal_px", self.near_goal_px, 0, lo_open=True)
         for name, value in (("near_goal_scale", self.near_goal_scale), ("near_goal_px", self.near_goal_px)):
-            if value is None:
-                continue
-            if name == "near_goal_scale":
-                check_number(name, value, 0, 1, lo_open=True)
-            else:
-                check_number(name, value, 0, lo_open=True)
-            if self.near_goal_inset_px is None:
+            if value is not None and self.near_goal_inset_px is None:
                 raise ConfigError(f"{name} ({value}) sets the near-goal template, which near_goal_inset_px=None turns "
                                   f"off: leave near_goal_inset_px at {NEAR_GOAL_AUTO!r} (or give a growth), or leave "
                                   f"{name} out")
@@ -321,6 +319,11 @@ def template_view(template_from: str | None, tracked_6dof: bool) -> str:
     return template_from or ("goal" if tracked_6dof else "start")
 
 
+def working_scale(tracker) -> float | None:
+    """A tracker's working scale (DeepLKConfig.scale), None where it has none (ECC, an outside tracker, no tracker)."""
+    return getattr(getattr(tracker, "config", None), "scale", None)
+
+
 def loop_tracker(tracker: str, settings: dict) -> Tracker | plugins.ExternalTracker | None:
     """The closed loop's tracker by name or plugin reference with its settings (None: the ground_truth oracle, or
     no tracker). Built before the scene, so a bad name or setting costs no rendering."""
@@ -379,8 +382,7 @@ class ServoLoop:
         on = self.near_goal_off is None
         return {"inset_px": self.near_goal_growth, "auto": c.near_goal_inset_px == NEAR_GOAL_AUTO,
                 "within_px": c.near_goal_within_px if on else None,
-                "scale": (self.resolved.near_goal_scale or getattr(getattr(self.tracker, "config", None), "scale", None))
-                if on else None,
+                "scale": (self.resolved.near_goal_scale or working_scale(self.tracker)) if on else None,
                 "off": self.near_goal_off, "switched_at_step": switched_at,
                 "note": "the step from which the grown template's corners were the features (null: never switched); "
                         "off: why the run kept one template"}
@@ -469,7 +471,7 @@ class ServoLoop:
             return None, why, None
         scale = config.near_goal_scale
         # a built-in tracker with a working scale is built again at the near-goal one; any other tracker is its own
-        own = getattr(getattr(self.tracker, "config", None), "scale", None) if tracker in TRACKER_NAMES else None
+        own = working_scale(self.tracker) if tracker in TRACKER_NAMES else None
         if own is None:
             if scale is not None:
                 raise ConfigError(f"near_goal_scale builds a built-in tracker again at another working scale; "
@@ -478,6 +480,7 @@ class ServoLoop:
             return near, None, None
         scale = NEAR_GOAL_SCALE if scale is None else float(scale)
         return near, None, (None if abs(own - scale) < 1e-12 else scale)
+
     def controlled_pose_error(self, pose_error: np.ndarray) -> tuple[float, float]:
         """(mm, deg) of the pose error in the DOFs this loop controls."""
         cols = [DOF_NAMES.index(d) for d in self.dofs]

@@ -26,7 +26,7 @@ from hvs_sim.bench.suites import TILT_MAX_DEG
 from hvs_sim.camera_model import BLUR_MODES, REALISTIC_PRESET
 from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.loop import LoopConfig
-from hvs_sim.loopparts import NEAR_GOAL_AUTO
+from hvs_sim.loopparts import NEAR_GOAL_AUTO, NEAR_GOAL_SCALE
 from hvs_sim.outputs import write_atomic
 from hvs_sim.provenance import code_provenance
 from hvs_sim.validate import check_number
@@ -240,7 +240,7 @@ def takes_near_goal_scale(tracker: str, warp: str | None, template_from: str | N
     if tracker not in TRACKER_NAMES or not has_goal_template(tracker, warp, template_from):
         return False
     try:
-        check_tracker(tracker, scale=0.5, **({"warp": warp} if warp else {}))
+        check_tracker(tracker, scale=NEAR_GOAL_SCALE, **({"warp": warp} if warp else {}))
     except ConfigError:  # no working scale (ECC)
         return False
     return True

@@ -51,8 +51,7 @@ def cmd_budget(args) -> int:
     scene = _target_overrides(args)
     if args.arm is not None:
         scene["arm"] = args.arm
-    near_goal = "auto" if args.near_goal_inset is None else args.near_goal_inset
-    rows = [b.budget(cam, args.standoff, near_goal, **scene)  # before --out is cleared
+    rows = [b.budget(cam, args.standoff, args.near_goal_inset, **scene)  # before --out is cleared
             for cam in dict.fromkeys(args.camera)]
     if not args.bound_only:
         done = []
@@ -144,7 +143,7 @@ def add_budget_parser(sub) -> None:
     p.add_argument("--episodes", type=int, default=None,
                    help=f"closed-loop servo episodes per camera (the servo benchmark's clear start poses; 0 = none; "
                         f"default {BUDGET_EPISODES})")
-    p.add_argument("--near-goal-inset", type=near_goal_inset, default=None, metavar="auto|off|PX",
+    p.add_argument("--near-goal-inset", type=near_goal_inset, default="auto", metavar="auto|off|PX",
                    help="the template the loop switches to near the goal (as `run --near-goal-inset`; default auto): "
                         "the bound, the measurement and the episodes on it; off: the loop's one template")
     p.add_argument("--bound-only", action="store_true",

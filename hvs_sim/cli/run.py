@@ -55,7 +55,7 @@ def cmd_run(args) -> int:
                         keep_frames=bool(args.rrd or args.spawn or args.figures or args.mcap),
                         template_from=args.template_from,
                         roi_inset_px=args.roi_inset, goal_frames=args.goal_frames,
-                        near_goal_inset_px="auto" if args.near_goal_inset is None else args.near_goal_inset,
+                        near_goal_inset_px=args.near_goal_inset,
                         near_goal_px=args.near_goal_px,
                         near_goal_scale=args.near_goal_scale,
                         feature_filter=args.feature_filter)
@@ -148,7 +148,7 @@ def add_run_parser(sub) -> None:
                         "with a start template). Negative, with a goal template: grow it that many pixels into the "
                         "target's surroundings, which must lie in its plane (-90: the wall's neighbouring pictures, "
                         "the 6-DOF loop's most precise setting, docs/results.md)")
-    p.add_argument("--near-goal-inset", type=near_goal_inset, default=None, metavar="auto|off|PX",
+    p.add_argument("--near-goal-inset", type=near_goal_inset, default="auto", metavar="auto|off|PX",
                    help="switch to a second goal template, grown beyond the target's outline, once the tracked corners "
                         "are within --near-goal-px of the goal's: the default template's robustness from afar, the "
                         "grown one's precision at the goal. auto (the default): grown to a quarter of the goal image, "

@@ -332,7 +332,6 @@ class BackgroundMotion:
                 return M
         return None
 
-
     def peek(self, key: np.ndarray, grey: np.ndarray, hidden: np.ndarray | None = None) -> np.ndarray | None:
         """What `update` would answer for `grey` from the chain's last frame (`key` where the chain has not started),
         leaving the chain as it was: for a check on a frame that may still be aligned. None where the scene gives
