@@ -14,9 +14,9 @@ from pathlib import Path
 from hvs_sim.outputs import write_atomic
 
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
-# torch threads in every episode and sequence, whatever --workers: a convolution's sums split over another number of
-# threads round differently in the last bits, which a closed loop amplifies into another episode (0.18 against
-# 1.23 mm on one seed); one thread keeps a seed's record the same however the benchmark is run
+# torch threads in every episode and sequence, whatever --workers: sums split over another number of threads round
+# differently in the last bits, which a closed loop can amplify into another episode; one thread keeps a seed's
+# record the same however the benchmark is run (tests/test_bench.py)
 EPISODE_THREADS = 1
 
 
