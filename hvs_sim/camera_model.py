@@ -90,8 +90,9 @@ def encode(linear: np.ndarray, gain: float = 1.0) -> np.ndarray:
 
 
 def _adc_to_srgb(codes: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
-    """ADC codes (uint16, rounded to nearest, saturated) → uint8 sRGB of `shape`: gain, ADC clip and sRGB curve are the
-    one table `_ENCODE_LUT16` (numpy's gather on a uint16 index: half the time of an int32 one, 64 KiB in cache)."""
+    """ADC codes (uint16, rounded to nearest, saturated; the gain already in their scale) → uint8 sRGB of `shape`: the
+    ADC's clip at full scale and the sRGB curve are the one table `_ENCODE_LUT16` (numpy's gather on a uint16 index:
+    half the time of an int32 one, 64 KiB in cache)."""
     return np.take(_ENCODE_LUT16, codes).reshape(shape)
 
 
@@ -333,7 +334,7 @@ class SensorState:
         else:
             gain = 1.0
         linear = np.ascontiguousarray(linear, np.float32)
-        if m.white_e < math.inf or m.read_noise_e > 0:
+        if m.white_e < math.inf:  # shot noise, and read noise (which needs white_e to be measured against)
             out = _adc_to_srgb(self._noisy_codes(linear, frame, stream, gain), linear.shape)
         else:
             out = encode(linear, gain)
@@ -351,13 +352,11 @@ class SensorState:
         """Shot + read noise (Gaussian approximation of Poisson, variance = electrons + read²) and the gain, straight
         to the ADC's codes: code = round(g·x + sqrt(g²(x·white_e + read²)) / white_e · z), g = gain × (LINEAR_LEVELS −
         1), in four single-threaded OpenCV passes on float32 (the electrons are never formed: the scale is folded)."""
-        m = self.model
-        fw = m.white_e if m.white_e < math.inf else 1.0
+        m = self.model  # noise needs a finite white_e (SensorModel refuses read noise without one)
         g = float(gain) * (LINEAR_LEVELS - 1)
-        c = g / fw  # ADC codes per electron
+        c = g / m.white_e  # ADC codes per electron
         flat = linear.reshape(linear.shape[0], -1)  # one channel to OpenCV: its scalars then apply to every element
-        shot = fw * c * c if m.white_e < math.inf else 0.0
-        sigma = cv2.addWeighted(flat, shot, flat, 0.0, (m.read_noise_e * c) ** 2)  # variance in codes²
+        sigma = cv2.addWeighted(flat, m.white_e * c * c, flat, 0.0, (m.read_noise_e * c) ** 2)  # variance in codes²
         cv2.sqrt(sigma, sigma)
         cv2.multiply(sigma, self.noise(frame, stream).reshape(flat.shape), sigma)
         return cv2.addWeighted(flat, g, sigma, 1.0, 0.0, dtype=cv2.CV_16U)
