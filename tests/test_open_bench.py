@@ -7,8 +7,8 @@ import pytest
 
 from hvs_sim.bench.compare import compare
 from hvs_sim.bench.servo import episode_offset, parse_method, portable_method
-from hvs_sim.bench.stats import episode_success, mcnemar, median_ci, rate, wilcoxon, wilson
 from hvs_sim.bench.splits import split_of
+from hvs_sim.bench.stats import episode_success, mcnemar, median_ci, rate, wilcoxon, wilson
 from hvs_sim.bench.suites import SUITES, describe, get_suite
 from hvs_sim.cli import main
 from hvs_sim.errors import ConfigError
