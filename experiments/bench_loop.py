@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import os
 import platform
 import sys
 import tempfile
@@ -215,7 +216,9 @@ def main() -> None:
                "no_eval": (False, False, None, False), "pipelined": (True, True, None, True),
                "pipelined_no_eval": (False, False, None, True), "as_run_ms4": (True, True, 4, False),
                "no_eval_ms4": (False, False, 4, False)}
-    res = {"machine": platform.machine(), "torch_threads": torch.get_num_threads(), "steps": args.steps,
+    # the machine's load beside its timings: other processes on the 2 cores slow every figure here
+    res = {"machine": platform.machine(), "load_average_start": os.getloadavg()[0],
+           "torch_threads": torch.get_num_threads(), "steps": args.steps,
            "tracker_frames": args.tracker_frames, "loop": {}}
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.configs:
@@ -228,6 +231,7 @@ def main() -> None:
             res["cameras"] = camera_loops(args.camera_pairs, args.steps, configs[args.camera_config],
                                           tuple(args.cameras), Path(tmp))
         if not args.configs:
+            res["load_average_end"] = os.getloadavg()[0]
             (out / "speed.json").write_text(json.dumps(res, indent=2))
             print(f"written: {out}/speed.json")
             return
@@ -242,6 +246,7 @@ def main() -> None:
     res["trackers"] = tracker_timing(args.tracker_frames)
     t = res["trackers"]
     print(f"hybrid {t['hybrid']['median_ms']:.1f} ms, ecc {t['ecc']['median_ms']:.2f} ms: {t['hybrid_over_ecc']:.1f}×")
+    res["load_average_end"] = os.getloadavg()[0]
     (out / "speed.json").write_text(json.dumps(res, indent=2))
     (out / "speed.md").write_text(markdown(res))
     print(f"written: {out}/speed.json, speed.md")

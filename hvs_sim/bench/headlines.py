@@ -155,7 +155,8 @@ def _speed_row(root, fig, name: str) -> str:
     return (f"**{fig(run['steps_per_second'], '.1f')} steps/s** as `make demo` runs it (recording on, wall time; "
             f"{fig(run['steps_per_second_after_first'], '.1f')} after step 0); the hybrid "
             f"{fig(t['hybrid']['median_ms'], '.1f')} ms a 640×480 frame, {fig(t['hybrid_over_ecc'], '.1f')}× ECC on "
-            "the same frames")
+            f"the same frames (the machine's load average {fig(res['load_average_start'], '.1f')} at the start, "
+            f"{fig(res['load_average_end'], '.1f')} at the end)")
 
 
 # (question, how its figures are made): the rows both tables show, in order
