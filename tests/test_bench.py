@@ -1,10 +1,13 @@
 """Benchmarks at their --smoke size, through the CLI, and the demo entry point's outputs."""
 
+import dataclasses
 import json
 
+import numpy as np
 import pytest
 
 from hvs_sim.cli import main
+from hvs_sim.errors import ConfigError
 
 
 def test_bench_track_smoke_writes_summary_csv_figures_and_table(tmp_path):
@@ -102,3 +105,74 @@ def test_a_seeds_record_does_not_depend_on_the_worker_count(tmp_path):
         records[workers] = [{k: v for k, v in e.items() if k not in TIMING_KEYS} for e in summary["episodes"]]
     assert [e["episode_seed"] for e in records[1]] == [1000, 1001]
     assert records[1] == records[2]
+
+
+def test_records_read_back_bit_for_bit():
+    """An episode's or sequence's record (bench/pool.to_record) gives back the same numbers, images and labels."""
+    from hvs_sim.bench.pool import from_record, to_record
+
+    value = ("k", {"error": np.array([0.1, 1 / 3, np.nan]), "mode": np.array(["track", "lost"]),
+                   "img": np.arange(24, dtype=np.uint8).reshape(2, 4, 3), "n": np.int64(3), "t": (1, 2.5)})
+    back = from_record(json.loads(json.dumps(to_record(value))))
+    assert back[0] == "k" and back[1]["n"] == 3 and back[1]["t"] == [1, 2.5]
+    np.testing.assert_array_equal(back[1]["error"], value[1]["error"])
+    assert back[1]["mode"].tolist() == ["track", "lost"]
+    assert back[1]["img"].dtype == np.uint8 and np.array_equal(back[1]["img"], value[1]["img"])
+
+
+def _interrupt_after(n, fn):
+    """A job function that runs n jobs, then raises KeyboardInterrupt as Ctrl-C would (deterministically)."""
+    calls = []
+
+    def job(args):
+        if len(calls) == n:
+            raise KeyboardInterrupt
+        calls.append(args)
+        return fn(args)
+    return job, calls
+
+
+def test_an_interrupted_servo_bench_keeps_its_episodes_and_resumes_to_the_same_records(tmp_path, monkeypatch):
+    """Each episode is recorded as it ends; an interrupted run's summary holds them, marked partial; --resume runs only
+    the missing episodes, and its records are those of a run never interrupted (timings apart)."""
+    from hvs_sim.bench import servo
+    from hvs_sim.bench.pool import RECORDS_DIR
+    from hvs_sim.bench.servo import ServoBenchConfig, run_servo_bench
+
+    cfg = ServoBenchConfig(trackers=("ground_truth",), scenarios=("pause",), seeds=(1000, 1001, 1002), steps=10,
+                           width=320, height=240, camera="robot_cell")
+    whole = run_servo_bench(cfg, tmp_path / "whole", progress=False)
+    real = servo._episode
+    job, calls = _interrupt_after(1, real)
+    monkeypatch.setattr(servo, "_episode", job)
+    with pytest.raises(KeyboardInterrupt):
+        run_servo_bench(cfg, tmp_path / "cut", progress=False)
+    partial = json.loads((tmp_path / "cut" / "summary.json").read_text())
+    assert partial["interrupted"] and (partial["completed_jobs"], partial["total_jobs"]) == (1, 3)
+    assert partial["records"][0]["key"] == ["pause", "ground_truth", 1000]
+    assert len(list((tmp_path / "cut" / RECORDS_DIR).glob("pause*.json"))) == 1
+    with pytest.raises(ConfigError, match="seeds"):  # other settings are refused, naming the field
+        run_servo_bench(dataclasses.replace(cfg, seeds=(1000, 1001)), tmp_path / "cut", progress=False, resume=True)
+    job, calls = _interrupt_after(99, real)
+    monkeypatch.setattr(servo, "_episode", job)
+    resumed = run_servo_bench(cfg, tmp_path / "cut", progress=False, resume=True)
+    assert [c[2] for c in calls] == [1001, 1002]  # only the missing episodes ran
+
+    def records(summary):
+        return [{k: v for k, v in e.items() if k not in TIMING_KEYS} for e in summary["episodes"]]
+    assert records(resumed) == records(whole)
+    assert "interrupted" not in json.loads((tmp_path / "cut" / "summary.json").read_text())
+
+
+def test_bench_resume_on_the_command_line(tmp_path, capsys):
+    """--resume refuses a folder with no records, and says a finished run has nothing to do."""
+    from hvs_sim.cli import main
+
+    out = tmp_path / "b"
+    argv = ["bench", "track", "--smoke", "--methods", "ecc", "--scenarios", "clear", "--out", str(out)]
+    assert main([*argv, "--resume"]) == 2
+    assert "holds no episodes/" in capsys.readouterr().err
+    assert main(argv) == 0
+    assert main([*argv, "--resume"]) == 0
+    assert "nothing to resume" in capsys.readouterr().out
+    assert main([*argv, "--resume", "--overwrite"]) == 2

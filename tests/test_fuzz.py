@@ -86,7 +86,7 @@ def stubs(monkeypatch, tmp_path):
     from hvs_sim.render import sequence
 
     def bench(summary):
-        def run(cfg, out, progress=True):
+        def run(cfg, out, progress=True, resume=False):
             SEEN_CONFIGS.append(cfg)
             Path(out, "summary.json").write_text(json.dumps({}))
             return summary

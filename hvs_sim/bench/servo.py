@@ -367,7 +367,7 @@ def throughput(episodes: list[dict], wall_s: float, workers: int) -> dict:
             if seconds else None}
 
 
-def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) -> dict:
+def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True, resume: bool = False) -> dict:
     from hvs_sim.bench.stats import RULES
     from hvs_sim.viz.figures import servo_figure
 
@@ -384,7 +384,7 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
             for s in config.scenarios for t in config.trackers for seed in seeds]
     episodes, traces = {}, {}
     wall = time.perf_counter()
-    for key, summ, trace in collect_jobs(_episode, jobs, config, out, "bench servo", "episode", progress):
+    for key, summ, trace in collect_jobs(_episode, jobs, config, out, "bench servo", "episode", progress, resume):
         episodes[key], traces[key] = summ, trace
     wall = time.perf_counter() - wall
     lo, hi = offset_range(0.8, np.radians(config.tilt_deg))

@@ -135,7 +135,7 @@ def _job(args):
     return (scen, mount, seed), {m: run_tracker(m, seq) for m in methods}
 
 
-def run_track_bench(config: TrackBenchConfig, out: Path, progress: bool = True) -> dict:
+def run_track_bench(config: TrackBenchConfig, out: Path, progress: bool = True, resume: bool = False) -> dict:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     from hvs_sim.plugins import portable
@@ -144,7 +144,7 @@ def run_track_bench(config: TrackBenchConfig, out: Path, progress: bool = True) 
     run_as = tuple(portable("tracker", m) if config.workers > 1 else m for m in config.methods)
     jobs = [(s, m, seed, config.frames, run_as, config.camera, config.people) for s in config.scenarios for m in config.mounts for seed in config.seeds]
     results = {k: dict(zip(config.methods, per.values(), strict=True))
-               for k, per in collect_jobs(_job, jobs, config, out, "bench track", "seq", progress)}
+               for k, per in collect_jobs(_job, jobs, config, out, "bench track", "sequence", progress, resume)}
     summary = {"config": config_json(config),
                "per_scenario": {}, "occlusion_scenarios": {}, "target_set": {}, "overall": {}}
     for m in config.methods:

@@ -64,7 +64,7 @@ def cmd_bench_natural(args) -> int:
                                  sources=tuple(args.sources or NATURAL_SOURCES), kinds=tuple(args.scenarios or NATURAL_KINDS),
                                  seeds=tuple(args.seeds or DEFAULT_SEEDS), camera=args.camera, workers=args.workers,
                                  motion=args.motion or "hand")
-    summary = run_natural_bench(cfg, Path(args.out))
+    summary = run_natural_bench(cfg, Path(args.out), resume=getattr(args, "resume", False))
     for m, a in summary["overall"].items():
         v = summary["visible_lt_40"][m]
         t = summary["timing"][m]
@@ -89,6 +89,8 @@ def cmd_bench(args) -> int:
         print(describe(), end="")
         return 0
     if args.what == "compare":
+        if getattr(args, "resume", False):
+            raise ConfigError("--resume completes an interrupted `bench servo` or `bench track` run, not a compare")
         return cmd_bench_compare(args)
     if args.paths:
         raise ConfigError(f"`bench {args.what}` takes no positional folders (got {args.paths}); `bench compare A B` does")
@@ -100,7 +102,11 @@ def cmd_bench(args) -> int:
         args.camera = REALISTIC_PRESET
     _check_bench_options(args)
     origin = _resolve_seeds(args)
-    fresh_out_dir(args.out, args.overwrite, BENCH_OUTPUTS)
+    if getattr(args, "resume", False):
+        if _nothing_to_resume(args):
+            return 0
+    else:
+        fresh_out_dir(args.out, args.overwrite, BENCH_OUTPUTS)
     started = _provenance(args.argv)  # the code at the start: a run may take hours, and the tree may move meanwhile
     if args.what == "track" and args.imagery == "natural":
         status = cmd_bench_natural(args)
@@ -115,6 +121,28 @@ def cmd_bench(args) -> int:
     write_atomic(path, json.dumps(data, indent=2))
     print(f"results: {args.out}/ (summary.json, table.md, figures)")
     return status
+
+
+def _nothing_to_resume(args) -> bool:
+    """--resume: refuse a folder with no run to complete (or with --overwrite, which would replace it); True, said,
+    when its run finished already (a summary.json that is not marked interrupted)."""
+    from hvs_sim.bench.pool import RECORDS_DIR
+
+    out = Path(args.out)
+    if args.overwrite:
+        raise ConfigError("--resume completes the run in --out and --overwrite replaces it: give one")
+    if not (out / RECORDS_DIR).is_dir():
+        raise ConfigError(f"--resume: {out} holds no {RECORDS_DIR}/ of an earlier `bench {args.what}` run to complete "
+                          "(runs before records were kept cannot be resumed); run it without --resume")
+    summary = out / "summary.json"
+    try:
+        data = json.loads(summary.read_text()) if summary.is_file() else {"interrupted": True}
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        data = {"interrupted": True}  # a summary cut short: the records say what is left
+    if data.get("interrupted"):
+        return False
+    print(f"{out} holds a finished run (summary.json is complete): nothing to resume")
+    return True
 
 
 def _bench_kind(args) -> str:
@@ -225,7 +253,7 @@ def _cmd_bench_sim(args) -> int:
             given = {"methods": METHODS, "scenarios": ("walk_by",), "mounts": ("handheld",), "seeds": (100,), **given}
         cfg = TrackBenchConfig(workers=args.workers, camera=camera_model(args.camera, args.blur), people=args.people,
                                frames=40 if args.smoke else None, **given)
-        summary = run_track_bench(cfg, Path(args.out))
+        summary = run_track_bench(cfg, Path(args.out), resume=getattr(args, "resume", False))
         for m, v in summary["occlusion_scenarios"].items():
             a = v["all"]
             print(f"{m:18s} occlusion scenarios: {a['pct_le_1px']:5.1f}% ≤1px {a['pct_le_2px']:5.1f}% ≤2px "
@@ -261,7 +289,7 @@ def _cmd_bench_sim(args) -> int:
                          suite=suite.name, scenarios=suite.scenarios, seeds=tuple(args.seeds))
         cfg = ServoBenchConfig(workers=args.workers, camera=camera_model(args.camera, args.blur), people=args.people,
                                steps=30 if args.smoke else None, **given)
-        summary = run_servo_bench(cfg, Path(args.out))
+        summary = run_servo_bench(cfg, Path(args.out), resume=getattr(args, "resume", False))
         for s, per in summary["results"].items():
             for t, r in per.items():
                 ok, reached = r["success"]["hvs_sim"], r["reached"]
@@ -300,6 +328,10 @@ def add_bench_parser(sub) -> None:
                         "methods you name (default: its reference methods; quick always runs them beside yours); "
                         "quick: a look in ~2 minutes")
     p.add_argument("--out", default=None, help="output folder (default: out/bench_<what>)")
+    p.add_argument("--resume", action="store_true",
+                   help="track | servo: complete the interrupted run in --out, running only the episodes (sequences) "
+                        "it has no record of in --out/episodes/; give the same options as that run (a different one "
+                        "is refused); then the usual summary, table and figures")
     p.add_argument("--smoke", action="store_true", help="a tiny version that runs in about a minute (not a result)")
     p.add_argument("--overwrite", action="store_true",
                    help="replace earlier results (summary.json, table.md, frames.csv, figures) in a non-empty --out")

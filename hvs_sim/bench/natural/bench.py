@@ -90,7 +90,7 @@ def _natural_job(args):
     return (source, kind, seed), res, meta
 
 
-def run_natural_bench(config: NaturalBenchConfig, out: Path, progress: bool = True) -> dict:
+def run_natural_bench(config: NaturalBenchConfig, out: Path, progress: bool = True, resume: bool = False) -> dict:
     """Every method on every (source, kind, seed) sequence; writes summary.json, frames.csv, table.md and figures."""
 
     from hvs_sim.bench.track import summarize
@@ -100,7 +100,7 @@ def run_natural_bench(config: NaturalBenchConfig, out: Path, progress: bool = Tr
     jobs = [(s, k, seed, config.frames, config.methods, config.camera, config.threads, config.motion)
             for s in config.sources for k in config.kinds for seed in config.seeds]
     results, metas = {}, {}
-    for key, res, meta in collect_jobs(_natural_job, jobs, config, out, "bench natural", "seq", progress):
+    for key, res, meta in collect_jobs(_natural_job, jobs, config, out, "bench natural", "sequence", progress, resume):
         results[key], metas[key] = res, meta
 
     def label(key) -> str:
