@@ -1,19 +1,24 @@
 """Run a tracker on your own footage: a video file or a folder of images.
 
-  hvs-sim track PATH --roi x,y,w,h [--tracker hybrid] [--target auto] [--out DIR] [--rrd FILE]
+  hvs-sim track PATH --roi x,y,w,h [--start N] [--end M] [--tracker hybrid] [--target auto] [--out DIR]
+                [--rrd FILE]
 
 PATH is a video file OpenCV can read, or a folder of images (.png .jpg .jpeg .bmp .tif .tiff,
 sorted by file name; other files are ignored; every image must have the size of the first).
 
+Frames are numbered from 0 in the clip. --start N --end M track frames N to M-1 (M exclusive, as a
+Python slice); the first tracked frame is N, and the ROI is given in it.
+
 Conventions: pixel centres sit at integer coordinates. The ROI (x, y, w, h) is given in the first
-frame and covers pixels x..x+w-1 and y..y+h-1; its centre is (x + (w - 1)/2, y + (h - 1)/2). The
+tracked frame and covers pixels x..x+w-1 and y..y+h-1; its centre is (x + (w - 1)/2, y + (h - 1)/2). The
 corners are the ROI's outer pixel edges (x - 0.5, y - 0.5) ... under the tracked warp, in the order
 top-left, top-right, bottom-right, bottom-left. The pose (tx, ty, theta, scale) is relative to the
 ROI at the first frame (theta in radians; positive turns clockwise on screen, as y points down).
 
 Outputs in DIR (default out/track):
-  track.csv      one row per frame: frame, cx, cy, tx, ty, theta, scale, mode, occlusion, score, ms.
-                 Row 0 is the first frame, where the tracker takes its template: its mode is "init",
+  track.csv      one row per frame: frame, cx, cy, tx, ty, theta, scale, mode, occlusion, score, ms
+                 (frame: the clip's frame number, N and on with --start N). The first row is the first
+                 tracked frame, where the tracker takes its template: its mode is "init",
                  its pose the identity and its ms the time init() took. Later rows have the tracker's
                  mode (align, predict or lost) and ms is the wall time of that update.
   annotated.mp4  the frames with the tracked outline and centre, coloured by mode (init white,
@@ -66,6 +71,7 @@ FOLDER_FPS = 30.0  # frame rate of the annotated video when the source is a fold
 CSV_NAME, VIDEO_NAME = "track.csv", "annotated.mp4"
 CSV_COLUMNS = ("frame", "cx", "cy", "tx", "ty", "theta", "scale", "mode", "occlusion", "score", "ms")
 INIT_MODE = "init"
+ALIGN_MODE = "align"  # the updates whose time the summary reports (predict and lost skip the alignment)
 # footage often shows a target that moves on its own, where the servo loop's static prior would veto it (`--target`)
 TRACK_TARGET_DEFAULT = "auto"
 EXIT_INTERRUPTED = 130  # the shell's convention for a process stopped by SIGINT
@@ -101,6 +107,7 @@ class FrameSource:
     rest: Iterator[np.ndarray]
     fps: float
     count: int | None  # frames in all, when known (for the progress bar)
+    start: int = 0  # the clip's number of `first` (--start)
 
     def close(self) -> None:
         self.rest.close()  # runs the generator's finally: releases a VideoCapture
@@ -110,8 +117,40 @@ class FrameSource:
         return self.first.shape[1], self.first.shape[0]
 
 
-def open_frames(path) -> FrameSource:
+def open_frames(path, start: int = 0, end: int | None = None) -> FrameSource:
+    """The frames start..end-1 of a video file or a folder of images (end None: to the clip's end)."""
     path = Path(path)
+    if start < 0 or (end is not None and end <= start):
+        raise ConfigError(f"--start {start} --end {end}: the range is frames start..end-1, so give 0 <= start < end")
+    source = _open_any(path)
+    return source if start == 0 and end is None else _frame_range(source, start, end)
+
+
+def _frame_range(source: FrameSource, start: int, end: int | None) -> FrameSource:
+    """The frames start..end-1 of `source` (the skipped ones are read, as a video can only be read in order)."""
+    import itertools
+
+    frames = itertools.chain([source.first], source.rest)
+    try:
+        for _ in range(start):
+            next(frames)
+        first = next(frames)
+    except StopIteration:
+        source.close()
+        raise InputError(f"--start {start} is past the end of {source.path}: it has "
+                         f"{source.count if source.count is not None else 'fewer'} frames (numbered from 0)") from None
+
+    def rest() -> Iterator[np.ndarray]:
+        try:
+            yield from itertools.islice(frames, None if end is None else end - start - 1)
+        finally:
+            source.close()
+
+    count = None if source.count is None else max(0, min(source.count, end or source.count) - start)
+    return FrameSource(source.path, first, rest(), source.fps, count, start)
+
+
+def _open_any(path: Path) -> FrameSource:
     if not path.exists():
         raise InputError(f"{path} does not exist; give a video file OpenCV can read or a folder of images "
                          f"({' '.join(IMAGE_SUFFIXES)})")
@@ -350,7 +389,8 @@ class TrackResult:
     tracker: str
     outputs: list[Path]
     modes: Counter = field(default_factory=Counter)
-    update_ms: list[float] = field(default_factory=list)  # updates only: init builds the template
+    align_ms: list[float] = field(default_factory=list)  # aligned updates (init builds the template: not counted)
+    other_ms: list[float] = field(default_factory=list)  # predicted and lost updates: cheap, and may be many
     interrupted: bool = False
     expected: int | None = None  # frames the source says it holds (a video's header), when it says
     notes: list[str] = field(default_factory=list)  # what the tracker said of this run (Tracker.notes)
@@ -361,14 +401,19 @@ class TrackResult:
 
     def add(self, track: Track) -> None:
         self.modes[track.mode] += 1
-        if track.mode != INIT_MODE:
-            self.update_ms.append(track.ms)
+        if track.mode == ALIGN_MODE:
+            self.align_ms.append(track.ms)
+        elif track.mode != INIT_MODE:
+            self.other_ms.append(track.ms)
 
     def summary(self) -> str:
         modes = ", ".join(f"{m} {self.modes[m]}" for m in (INIT_MODE, "align", "predict", "lost"))
-        ms = f"{statistics.median(self.update_ms):.1f} ms" if self.update_ms else "n/a"
+        aligned = f"{statistics.median(self.align_ms):.1f} ms" if self.align_ms else "n/a (no aligned frame)"
+        other = (f"; predicted or lost updates apart: {statistics.median(self.other_ms):.1f} ms"
+                 if self.other_ms else "")
         state = "interrupted after" if self.interrupted else "tracked"
-        lines = [f"{state} {self.frames} frames with {self.tracker} ({modes}); median update {ms}",
+        head = f"{state} {self.frames} frames with {self.tracker} ({modes}); median update on aligned frames {aligned}"
+        lines = [head + other,
                  "outputs: " + ", ".join(map(str, self.outputs))]
         lines += [f"note: {n}" for n in self.notes]
         if self.expected is not None and self.frames < self.expected and not self.interrupted:
@@ -399,12 +444,13 @@ def target_settings(tracker: str, target: str | None, settings: dict) -> dict:
 
 def track_footage(path, roi, tracker: str = DEFAULT_TRACKER, out="out/track", rrd=None,
                   progress: bool = True, settings: dict | None = None, overwrite: bool = False,
-                  target: str | None = None, mcap=None) -> TrackResult:
+                  target: str | None = None, mcap=None, start: int = 0, end: int | None = None) -> TrackResult:
     """Check every input, then stream the frames through the tracker into the outputs.
     settings: the tracker's config fields (make_tracker keywords), e.g. other weights. An --out holding anything
     is refused unless `overwrite` (then its earlier track.csv and annotated.mp4 are replaced when this run ends).
     target: static | moving | auto, the hybrid's motion prior (target_settings; None: auto for the hybrids).
-    mcap: a new folder for a ROS 2 bag of the frames, the tracked corners and the mode."""
+    mcap: a new folder for a ROS 2 bag of the frames, the tracked corners and the mode.
+    start, end: track the clip's frames start..end-1 (the ROI is in frame `start`)."""
     tracker = check_any_tracker(tracker)
     settings = target_settings(tracker, target, dict(settings or {}))
     roi = parse_roi(roi) if isinstance(roi, str) else roi
@@ -412,7 +458,7 @@ def track_footage(path, roi, tracker: str = DEFAULT_TRACKER, out="out/track", rr
         raise ConfigError(f"--mcap {mcap} exists: a ROS 2 bag is a new folder; give a path that does not exist")
     check_apart([path], {"--out's track.csv": Path(out) / CSV_NAME, "--out's annotated.mp4": Path(out) / VIDEO_NAME,
                          "--rrd": None if rrd is None else Path(rrd), "--mcap": None if mcap is None else Path(mcap)})
-    source = open_frames(path)
+    source = open_frames(path, start, end)
     try:
         roi = check_roi(roi, source.first.shape[:2])
         out = fresh_out_dir(out, overwrite, (CSV_NAME, VIDEO_NAME), clear=False)
@@ -435,7 +481,7 @@ def _run(method, roi, source: FrameSource, outputs: TrackOutputs, result: TrackR
     """Track every frame; True when Ctrl-C stopped it (outputs kept), outputs removed on any error."""
     try:
         for index, (frame, track) in enumerate(_tracks(method, roi, source)):
-            outputs.write(index, frame, track)
+            outputs.write(source.start + index, frame, track)
             result.add(track)
             bar.update(1)
     except KeyboardInterrupt:
@@ -482,8 +528,13 @@ def add_track_parser(sub) -> None:
     p = sub.add_parser("track", help="run a tracker on your own video file or folder of images",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("path", help=f"a video file OpenCV can read, or a folder of images ({' '.join(IMAGE_SUFFIXES)})")
-    p.add_argument("--roi", required=True, metavar="x,y,w,h", help="the target in the first frame, integers: covers "
+    p.add_argument("--roi", required=True, metavar="x,y,w,h", help="the target in the first tracked frame (frame N "
+                   "with --start N), integers: covers "
                    f"pixels x..x+w-1, y..y+h-1, centre (x + (w-1)/2, y + (h-1)/2); at least {MIN_ROI}×{MIN_ROI}")
+    p.add_argument("--start", type=int, default=0, metavar="N",
+                   help="the first frame to track, numbered from 0 in the clip (default 0); the ROI is in this frame")
+    p.add_argument("--end", type=int, default=None, metavar="M",
+                   help="stop before frame M: frames N..M-1 are tracked (M exclusive; default: to the clip's end)")
     p.add_argument("--tracker", default=DEFAULT_TRACKER, metavar="NAME",
                    help=f"one of: {', '.join(TRACKER_NAMES)} (default {DEFAULT_TRACKER}); or an outside tracker: a "
                         "registered or entry-point name, package.module:callable or path/to/file.py:callable")
@@ -506,7 +557,7 @@ def cmd_track(args) -> int:
     try:
         result = track_footage(args.path, args.roi, args.tracker, args.out, args.rrd,
                                settings=parse_settings(args.set), overwrite=args.overwrite, target=args.target,
-                               mcap=args.mcap)
+                               mcap=args.mcap, start=args.start, end=args.end)
     except KeyboardInterrupt:  # before the first frame was tracked: nothing was written
         print("hvs-sim: interrupted (Ctrl-C) before tracking started; nothing written", file=sys.stderr)
         return EXIT_INTERRUPTED

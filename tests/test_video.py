@@ -3,6 +3,7 @@
 import csv
 import math
 from pathlib import Path
+from types import SimpleNamespace
 
 import cv2
 import numpy as np
@@ -342,3 +343,40 @@ def test_track_with_its_recording_on_a_full_disk_ends_with_a_clear_error(clip, t
         check_outputs(tmp_path / "out")
     finally:
         subprocess.run(["umount", str(full)], check=False)
+
+
+RANGE = (10, 25)  # --start, --end of the range test: frames 10..24
+
+
+def test_a_frame_range_tracks_from_its_first_frame_with_the_roi_in_that_frame(clip, tmp_path, capsys):
+    """--start N --end M tracks frames N..M-1 (M exclusive), the ROI given in frame N; track.csv numbers the rows
+    as the clip does."""
+    start, end = RANGE
+    cx, cy = true_centre(start)
+    roi = (round(cx - (PATCH - 1) / 2), round(cy - (PATCH - 1) / 2), PATCH, PATCH)
+    out = tmp_path / "out"
+    assert main(["track", str(clip["folder"]), "--roi", roi_arg(roi), "--start", str(start), "--end", str(end),
+                 "--tracker", "ecc", "--out", str(out)]) == 0
+    _, rows = read_csv(out / "track.csv")
+    assert [int(r["frame"]) for r in rows] == list(range(start, end))
+    assert worst_error(rows) <= PNG_BOUND_PX + 0.5  # the ROI is rounded to whole pixels in frame N
+    assert f"{end - start} frames with ecc" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("start, end, words", [(20, 20, ("start < end",)), (30, 5, ("start < end",)),
+                                               (-1, None, ("start < end",)), (FRAMES, None, ("past the end", "40"))])
+def test_a_frame_range_outside_the_clip_is_refused(start, end, words, clip, tmp_path, capsys):
+    argv = ["track", str(clip["mp4"]), "--roi", roi_arg(), "--start", str(start), "--out", str(tmp_path / "out")]
+    assert_refused(argv + ([] if end is None else ["--end", str(end)]), capsys, *words)
+
+
+def test_the_summary_times_aligned_frames_apart_from_lost_ones():
+    """Lost and predicted updates are cheap: the summary's median update is that of the aligned frames."""
+    from hvs_sim.video import TrackResult
+
+    result = TrackResult("x", [])
+    for mode, ms in [(INIT_MODE, 50.0), ("align", 20.0), ("align", 22.0), ("lost", 1.0), ("lost", 1.0),
+                     ("lost", 1.0), ("predict", 2.0)]:
+        result.add(SimpleNamespace(mode=mode, ms=ms))
+    text = result.summary()
+    assert "median update on aligned frames 21.0 ms" in text and "lost updates apart: 1.0 ms" in text
