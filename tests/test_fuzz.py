@@ -97,7 +97,8 @@ def stubs(monkeypatch, tmp_path):
     monkeypatch.setattr(natural, "run_natural_bench",
                         bench({"overall": {}, "visible_lt_40": {}, "timing": {}, "per_kind": {}}))
     brief = dict.fromkeys(("converged", "held_to_end", "steps_to_converge", "final_error_px", "final_pose_error_mm",
-                           "final_pose_error_deg", "controlled_dofs", "max_error_px_during_occlusion",
+                           "final_pose_error_deg", "final_controlled_pose_error_mm",
+                           "final_controlled_pose_error_deg", "controlled_dofs", "max_error_px_during_occlusion",
                            "lost_steps", "predict_steps", "fault_steps", "steps_per_second"), 0)
     brief.update(not_converged_because="image 1.00 px > 0.5 px", faults=[])
     monkeypatch.setattr(runner, "run_episode", lambda *a, **k: (brief, []))
@@ -205,3 +206,17 @@ def test_bench_seeds_come_from_a_split_or_a_fresh_draw(stubs, capsys):
                       (["--fresh", "3", "--episodes", "4"], "leave --episodes out")):
         assert main(["bench", "servo", *argv, "--out", str(stubs / "x")]) == 2
         assert msg in capsys.readouterr().err
+
+
+def test_run_prints_the_pose_error_over_the_controlled_dofs(stubs, capsys):
+    """`run` and `demo` print the pose error that convergence and error.png judge: over the controlled DOFs."""
+    assert main(["run", "--scenario", "pause", "--steps", "3", "--json", str(stubs / "r.json")]) == 0
+    printed = capsys.readouterr().out
+    assert "final_controlled_pose_error_mm" in printed and "final_controlled_pose_error_deg" in printed
+    assert '"final_pose_error_mm"' not in printed
+
+
+def test_scenes_list_says_jpeg_off_rather_than_q0(capsys):
+    assert main(["scenes", "--list"]) == 0
+    printed = capsys.readouterr().out
+    assert "JPEG off" in printed and "JPEG q0" not in printed and "JPEG q75" in printed

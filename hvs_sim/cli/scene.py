@@ -83,7 +83,7 @@ def cmd_scenes(args) -> int:
     for name, m in SENSOR_PRESETS.items():
         print(f"  {name:16s} " + ("clean renders, every effect off" if m.is_ideal else
               f"exposure {m.exposure_ms:g} ms, {m.white_e:g} e- from white, read noise {m.read_noise_e:g} e-, "
-              f"AE target {m.ae_target:g}, JPEG q{m.jpeg_quality}, light dim {m.light_dim:g} / flicker {m.light_flicker:g}"
+              f"AE target {m.ae_target:g}, JPEG {f'q{m.jpeg_quality}' if m.jpeg_quality else 'off'}, light dim {m.light_dim:g} / flicker {m.light_flicker:g}"
               + (f", distortion k1 {m.distortion[0]:g}" if m.distortion else "")))
     from hvs_sim.scene.arms import ARM_NAMES, arm_summary
 
