@@ -121,15 +121,18 @@ def test_method_colours_are_stable_and_distinct():
     assert method_colour("{my.pkg:make}") == method_colour("{my.pkg:make}")
 
 
-def _results(folder, suite="occlusion-v1", methods=("a", "b"), errors=None, camera="phone_handheld"):
-    folder.mkdir()
+def _results(folder, suite="occlusion-v1", methods=("a", "b"), errors=None, camera="phone_handheld",
+             scenarios=("walk_by",)):
+    folder.mkdir(parents=True)
     eps = []
     for m in methods:
-        for seed in range(20):
-            t = errors[m][seed] if errors else 5.0
-            eps.append({**_episode(float(t), 0.5, held=bool(t < 10)), "method": m, "scenario": "walk_by", "episode_seed": seed})
+        for scen in scenarios:
+            for seed in range(20):
+                t = errors[m][seed] if errors else 5.0
+                eps.append({**_episode(float(t), 0.5, held=bool(t < 10)), "method": m, "scenario": scen,
+                            "episode_seed": seed})
     data = {"schema": "hvs_sim.servo-results/2", "suite": suite, "commit": "abc",
-            "config": {"trackers": list(methods), "scenarios": ["walk_by"], "camera": camera, "people": "textured",
+            "config": {"trackers": list(methods), "scenarios": list(scenarios), "camera": camera, "people": "textured",
                        "width": 640, "height": 480, "tilt_deg": 15.0, "extra_steps": 60, "steps": None,
                        "success_px": 1.0},
             "episodes": eps}
@@ -143,8 +146,9 @@ def test_bench_compare_pairs_episodes_and_refuses_other_suites(tmp_path, capsys)
     bad = {"b": np.r_[rng.uniform(12, 30, 12), rng.uniform(1, 5, 8)]}
     A = _results(tmp_path / "A", methods=("a",), errors=good)
     B = _results(tmp_path / "B", methods=("b",), errors=bad)
-    res = compare(A, B)
-    row = next(r for r in res["rows"] if r["scenario"] == "all")
+    res = compare(A, B)  # one method each: those two are paired; one scenario: no "all" row repeating it
+    assert [r["scenario"] for r in res["rows"]] == ["walk_by"]
+    row = res["rows"][0]
     assert row["episodes"] == 20 and row["mcnemar"]["only_a"] == 12 and row["mcnemar"]["p_value"] < 0.001
     assert row["pose_error_mm"]["p_value"] < 0.05 and row["pose_error_mm"]["median_difference"] < 0
     out = tmp_path / "cmp"
@@ -166,6 +170,35 @@ def test_bench_compare_pairs_episodes_and_refuses_other_suites(tmp_path, capsys)
     assert main(["bench", "compare", str(A)]) == 2
 
 
+def test_bench_compare_pairs_methods_by_name_labels_runs_by_folder_and_draws_a_readable_figure(tmp_path, capsys):
+    """A method in both runs is compared with itself (not with every other), the runs are named by their folders,
+    "all" rows appear only over several scenarios, and the figure (a panel per measure, a row per method) stays
+    at most 1600 px wide."""
+    from PIL import Image
+
+    methods, scenarios = ("m1", "m2", "m3"), ("clear", "walk_by")
+    mine = _results(tmp_path / "mine", methods=methods, scenarios=scenarios)
+    ref = _results(tmp_path / "reference", methods=methods, scenarios=scenarios)
+    res = compare(mine, ref)
+    assert {(r["a"], r["b"]) for r in res["rows"]} == {(m, m) for m in methods}
+    assert [r["scenario"] for r in res["rows"] if r["a"] == "m1"] == ["clear", "walk_by", "all"]
+    assert (res["label_a"], res["label_b"]) == ("mine", "reference")
+    explicit = compare(mine, ref, methods_a=["m1"], methods_b=["m3"])
+    assert {(r["a"], r["b"]) for r in explicit["rows"]} == {("m1", "m3")}
+    other = _results(tmp_path / "other", methods=("x", "y"), scenarios=scenarios)
+    with pytest.raises(ConfigError, match="share no method name.*--methods MA MB"):
+        compare(mine, other)
+    out = tmp_path / "cmp"
+    assert main(["bench", "compare", str(mine), str(ref), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "method A (mine)" in printed and "method B (reference)" in printed
+    with Image.open(out / "compare.png") as img:
+        assert img.width <= 1600 and img.height < img.width
+    again = _results(tmp_path / "x" / "run", methods=("m1",))
+    same_name = _results(tmp_path / "y" / "run", methods=("m1",))
+    assert compare(again, same_name)["label_a"] == "x/run"  # folders named alike: with their parents
+
+
 def test_compare_refuses_results_from_before_the_schema(tmp_path):
     old = tmp_path / "old"
     old.mkdir()
@@ -178,7 +211,7 @@ def test_compare_refuses_results_from_before_the_schema(tmp_path):
         compare(old, new)
     # an interrupted run's summary (bench/pool.collect_jobs) is named as such, not as an old schema
     (old / "summary.json").write_text(json.dumps({"interrupted": True, "completed_jobs": 23, "total_jobs": 60}))
-    with pytest.raises(ConfigError, match="interrupted run's partial summary \\(23 of 60 episodes"):
+    with pytest.raises(ConfigError, match="interrupted run's partial summary \\(23 of 60 episodes.*--resume"):
         compare(new, old)
 
 
