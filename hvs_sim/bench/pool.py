@@ -238,6 +238,8 @@ def collect_jobs(fn: Callable, jobs: Sequence, config, out: Path, desc: str, uni
             "resume": f"complete it with the same command and --resume --out {out}",
             "config": recorded_config,
             "records": [{"key": list(r[0]), "result": to_record(r[1:])} for r in done]}, indent=1))
+        print(f"{desc}: {len(done)} of {len(jobs)} {unit}(s) are recorded in {records}/; the same command with "
+              f"--resume runs the other {len(jobs) - len(done)}", file=sys.stderr)
         raise
     return [results[i] for i in range(len(jobs))]
 
