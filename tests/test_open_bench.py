@@ -213,6 +213,10 @@ def test_compare_refuses_results_from_before_the_schema(tmp_path):
     (old / "summary.json").write_text(json.dumps({"interrupted": True, "completed_jobs": 23, "total_jobs": 60}))
     with pytest.raises(ConfigError, match="interrupted run's partial summary \\(23 of 60 episodes.*--resume"):
         compare(new, old)
+    (old / "summary.json").unlink()  # killed outright: records, no summary
+    (old / "episodes").mkdir()
+    with pytest.raises(ConfigError, match="killed.*--resume"):
+        compare(new, old)
 
 
 def test_dvs_refuses_a_goal_without_texture():

@@ -25,6 +25,9 @@ EPISODE_FIELDS = ("scenarios", "camera", "people", "width", "height", "tilt_deg"
 def load_results(folder) -> dict:
     path = Path(folder) / "summary.json"
     if not path.is_file():
+        if (Path(folder) / "episodes").is_dir():  # bench/pool.RECORDS_DIR: a run killed before it could write one
+            raise ConfigError(f"{folder} holds episode records but no summary.json (its run was killed): complete it "
+                              f"with the same `bench servo` command and --resume --out {folder}")
         raise ConfigError(f"{folder} holds no summary.json: give a folder written by `hvs-sim bench servo`")
     try:
         data = json.loads(path.read_text())

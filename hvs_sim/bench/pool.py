@@ -190,12 +190,12 @@ def _load_record(path: Path, key: tuple):
 
 
 def collect_jobs(fn: Callable, jobs: Sequence, config, out: Path, desc: str, unit: str, progress: bool = True,
-                 resume: bool = False) -> list:
+                 resume: bool = False, ran: list | None = None) -> list:
     """Every job's result (run_jobs with config.workers), in order, each recorded as it ends in out/episodes/
     (atomic JSON; what is returned is the record read back, so a resumed run computes exactly what an uninterrupted
     one does). resume: the jobs recorded already are read, not run (the config must match the recorded one).
     Interrupted part-way, it writes out/summary.json marked interrupted, with the finished jobs' records, then lets
-    the interrupt go on."""
+    the interrupt go on. ran: filled with the keys of the jobs run now (not read from records), for throughput."""
     out = Path(out)
     records = out / RECORDS_DIR
     recorded_config = config_json(config)
@@ -225,6 +225,8 @@ def collect_jobs(fn: Callable, jobs: Sequence, config, out: Path, desc: str, uni
             text = json.dumps(record, indent=1)
             write_atomic(records / record_name(_job_key(jobs[i])), text)
             results[i] = _load_record_text(text)
+            if ran is not None:
+                ran.append(results[i][0])
             if n == 0 and progress and len(todo) > 1:
                 first = time.perf_counter() - started
                 left = first * (len(todo) - 1) / max(1, min(config.workers, len(todo) - 1))

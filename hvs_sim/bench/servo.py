@@ -382,9 +382,9 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True, 
              (config.width, config.height), np.radians(config.tilt_deg), run_as[t], config.arm,
              config.near_goal_inset_px, config.near_goal_scale)
             for s in config.scenarios for t in config.trackers for seed in seeds]
-    episodes, traces = {}, {}
+    episodes, traces, ran = {}, {}, []
     wall = time.perf_counter()
-    for key, summ, trace in collect_jobs(_episode, jobs, config, out, "bench servo", "episode", progress, resume):
+    for key, summ, trace in collect_jobs(_episode, jobs, config, out, "bench servo", "episode", progress, resume, ran):
         episodes[key], traces[key] = summ, trace
     wall = time.perf_counter() - wall
     lo, hi = offset_range(0.8, np.radians(config.tilt_deg))
@@ -394,7 +394,8 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True, 
                                 "axes": "dx, dy, dz (m, camera frame), roll, pitch, yaw (rad); standoff 0.8 m",
                                 "note": "draws the arm cannot reach or with the target out of view are drawn again"},
                "results": {}, "episodes": [dict(e) for e in episodes.values()],
-               "throughput": throughput(list(episodes.values()), wall, config.workers)}
+               # the episodes run now (a resumed run read the others from their records: their time is not in wall)
+               "throughput": throughput([episodes[k] for k in ran], wall, config.workers)}
     for s in config.scenarios:
         for t in config.trackers:
             summary["results"].setdefault(s, {})[t] = method_results([episodes[(s, t, seed)] for seed in seeds],
