@@ -176,3 +176,44 @@ def test_bench_resume_on_the_command_line(tmp_path, capsys):
     assert main([*argv, "--resume"]) == 0
     assert "nothing to resume" in capsys.readouterr().out
     assert main([*argv, "--resume", "--overwrite"]) == 2
+
+
+@dataclasses.dataclass(frozen=True)
+class _PoolConfig:
+    """A stand-in benchmark config for collect_jobs (what it reads: workers, and the fields it records)."""
+
+    workers: int = 1
+    frames: int = 5
+
+
+def _sequence_job(job):
+    """A stand-in tracking job: per-frame arrays, labels and a preview image, as bench track and natural return."""
+    scen, mount, seed = job
+    return (scen, mount, seed), {"error": np.arange(seed, dtype=float) / 3, "mode": np.array(["align"] * seed)}, \
+        np.full((2, 3, 3), seed, np.uint8)
+
+
+def test_collect_jobs_records_interrupts_and_resumes_any_benchmark(tmp_path, capsys):
+    """The pool's part, for any benchmark: records per job, a partial summary without images, a resume that runs only
+    what is missing (whatever --workers), and a refusal that names the differing setting."""
+    from hvs_sim.bench.pool import RECORDS_DIR, collect_jobs
+
+    jobs = [("walk_by", "handheld", seed) for seed in (2, 3, 4, 5)]
+    job, calls = _interrupt_after(3, _sequence_job)
+    with pytest.raises(KeyboardInterrupt):
+        collect_jobs(job, jobs, _PoolConfig(), tmp_path, "bench track", "sequence", progress=True)
+    assert "3 of 4 sequence(s) are recorded" in capsys.readouterr().err
+    partial = json.loads((tmp_path / "summary.json").read_text())
+    assert (partial["completed_jobs"], partial["total_jobs"]) == (3, 4)
+    assert partial["records"][0]["result"][1] == {"image_shape": [2, 3, 3], "in": RECORDS_DIR}
+    with pytest.raises(ConfigError, match="frames = 5, this command gives 6"):
+        collect_jobs(_sequence_job, jobs, _PoolConfig(frames=6), tmp_path, "bench track", "sequence", False, True)
+    job, calls = _interrupt_after(99, _sequence_job)
+    done = collect_jobs(job, jobs, _PoolConfig(), tmp_path, "bench track", "sequence", False, resume=True)
+    assert calls == [("walk_by", "handheld", 5)]
+    whole = [_sequence_job(j) for j in jobs]
+    for got, want in zip(done, whole, strict=True):
+        assert got[0] == want[0] and np.array_equal(got[1]["error"], want[1]["error"])
+        assert got[1]["mode"].tolist() == want[1]["mode"].tolist() and np.array_equal(got[2], want[2])
+    again = collect_jobs(job, jobs, _PoolConfig(workers=2), tmp_path, "bench track", "sequence", False, resume=True)
+    assert len(calls) == 1 and len(again) == 4  # all recorded: nothing runs, and --workers may differ

@@ -239,11 +239,22 @@ def collect_jobs(fn: Callable, jobs: Sequence, config, out: Path, desc: str, uni
             "completed": [list(r[0]) for r in done],
             "resume": f"complete it with the same command and --resume --out {out}",
             "config": recorded_config,
-            "records": [{"key": list(r[0]), "result": to_record(r[1:])} for r in done]}, indent=1))
+            "records": [{"key": list(r[0]), "result": _without_images(to_record(r[1:]))} for r in done]}, indent=1))
         print(f"{desc}: {len(done)} of {len(jobs)} {unit}(s) are recorded in {records}/; the same command with "
               f"--resume runs the other {len(jobs) - len(done)}", file=sys.stderr)
         raise
     return [results[i] for i in range(len(jobs))]
+
+
+def _without_images(value):
+    """A record for the partial summary: images (previews) only named by their shape; they stay in episodes/."""
+    if isinstance(value, dict):
+        if "__ndarray_b64__" in value:
+            return {"image_shape": value["shape"], "in": RECORDS_DIR}
+        return {k: _without_images(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_without_images(v) for v in value]
+    return value
 
 
 def _load_record_text(text: str) -> tuple:
