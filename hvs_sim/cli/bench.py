@@ -115,6 +115,8 @@ def cmd_bench(args) -> int:
     path = Path(args.out) / "summary.json"
     data = json.loads(path.read_text())
     data["provenance"] = finish_provenance(started)
+    if getattr(args, "resume", False):  # completed by --resume: part of its episodes ran under an earlier command
+        data["resumed"] = True
     if origin is not None:
         data.update(split=origin, seeds_fresh=origin == "fresh", seeds=list(args.seeds))
         _note_seeds(Path(args.out) / "table.md", origin, args.seeds)
