@@ -582,5 +582,7 @@ def _report_figures(kind: str, stats: dict, by: list[str], out: Path) -> None:
              "fraction of frames")
     fig.suptitle(f"sweep grouped by {', '.join(by)}")
     fig.tight_layout()
-    fig.savefig(out / "report.png", dpi=90)
+    from hvs_sim.outputs import save_figure
+
+    save_figure(fig, out / "report.png", dpi=90)
     plt.close(fig)

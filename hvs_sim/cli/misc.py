@@ -14,6 +14,7 @@ from hvs_sim.errors import ConfigError
 from hvs_sim.outputs import fresh_out_dir, prepare_out_dir, write_atomic
 from hvs_sim.scene.arms import DEFAULT_ARM
 
+DEMO_OUTPUTS = ("run.json", "run_steps.csv", "run.rrd", "frames.png", "error.png")  # what `hvs-sim demo` writes
 BUDGET_EPISODES = 3  # `hvs-sim budget`'s closed-loop episodes per camera: a handful, to set beside the prediction
 
 
@@ -106,12 +107,19 @@ def cmd_dataset(args) -> int:
 
 def cmd_demo(args) -> int:
     from hvs_sim.cli import build_parser  # the package's: it gathers every command module, this one included
+    from hvs_sim.outputs import check_replaceable
 
     parser = build_parser()
-    out = Path(args.out)
-    return cmd_run(parser.parse_args(["run", "--scenario", "walk_by", "--tracker", DEFAULT_TRACKER, "--seed", "0",
-                                      "--steps", "240", "--json", str(out / "run.json"), "--rrd", str(out / "run.rrd"),
-                                      "--figures", str(out)]))
+    out = prepare_out_dir(args.out)
+    run_args = parser.parse_args(["run", "--scenario", "walk_by", "--tracker", DEFAULT_TRACKER, "--seed", "0",
+                                  "--steps", "240", "--json", str(out / "run.json"), "--rrd", str(out / "run.rrd"),
+                                  "--figures", str(out)])
+    # every file of the demo is one the user did not name: an earlier demo's are replaced, anything else needs
+    # --overwrite
+    check_replaceable({f"--out's {name}": out / name for name in DEMO_OUTPUTS}, overwrite=args.overwrite, root=out,
+                      hint=" or pass --overwrite")
+    run_args.overwrite = args.overwrite
+    return cmd_run(run_args)
 
 
 def add_train_parser(sub) -> None:
@@ -156,6 +164,8 @@ def add_budget_parser(sub) -> None:
 def add_demo_parser(sub) -> None:
     p = sub.add_parser("demo", formatter_class=HelpFormatter, help="the README's demo on built-in defaults (headless, offline)")
     p.add_argument("--out", default="out/demo", help="folder for run.json, run.rrd and the figures")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace files of those names that an earlier hvs-sim did not write (its own are replaced)")
     p.set_defaults(func=cmd_demo)
 
 
