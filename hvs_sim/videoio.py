@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from hvs_sim import outputs
 from hvs_sim.errors import OutputError
-from hvs_sim.outputs import ensure_space, output_error
 
 log = logging.getLogger(__name__)
 H264_CRF = 18  # x264 constant quality: near-lossless for rendered frames (mean error < 4 levels, tests)
@@ -53,13 +53,13 @@ class Mp4Writer:
     def write(self, rgb: np.ndarray) -> None:
         """One frame; a full disk is an OutputError before FFmpeg is handed a chunk it cannot write (it may crash)."""
         try:
-            ensure_space(self.path, rgb.nbytes)
+            outputs.ensure_space(self.path, rgb.nbytes)
             self._write(rgb)
         except OSError as exc:
-            raise output_error(self.shown, exc) from None
+            raise outputs.output_error(self.shown, exc) from None
         except Exception as exc:
             if _ffmpeg_error(exc):
-                raise output_error(self.shown, exc) from None
+                raise outputs.output_error(self.shown, exc) from None
             raise
 
     def _write(self, rgb: np.ndarray) -> None:
@@ -82,10 +82,10 @@ class Mp4Writer:
         try:
             self._close()
         except OSError as exc:
-            raise output_error(self.shown, exc) from None
+            raise outputs.output_error(self.shown, exc) from None
         except Exception as exc:
             if _ffmpeg_error(exc):
-                raise output_error(self.shown, exc) from None
+                raise outputs.output_error(self.shown, exc) from None
             raise
 
     def _close(self) -> None:

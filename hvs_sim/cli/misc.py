@@ -11,10 +11,11 @@ from hvs_sim.cli.common import HelpFormatter, _target_overrides
 from hvs_sim.cli.run import cmd_run
 from hvs_sim.cliargs import DEFAULT_TRACKER, near_goal_inset
 from hvs_sim.errors import ConfigError
-from hvs_sim.outputs import fresh_out_dir, prepare_out_dir, write_atomic
+from hvs_sim.outputs import MANIFEST_NAME, fresh_out_dir, prepare_out_dir, write_atomic
 from hvs_sim.scene.arms import DEFAULT_ARM
 
 DEMO_OUTPUTS = ("run.json", "run_steps.csv", "run.rrd", "frames.png", "error.png")  # what `hvs-sim demo` writes
+BUDGET_OUTPUTS = ("budget.json", "budget.md", "budget.png")
 BUDGET_EPISODES = 3  # `hvs-sim budget`'s closed-loop episodes per camera: a handful, to set beside the prediction
 
 
@@ -46,9 +47,15 @@ def cmd_budget(args) -> int:
     args.episodes = BUDGET_EPISODES if args.episodes is None else args.episodes
     if args.episodes < 0:
         raise ConfigError(f"--episodes must be 0 or more, got {args.episodes}")
+    from hvs_sim.outputs import check_apart, check_replaceable
+
     out = Path(args.out)
-    if out.is_dir() and any(out.iterdir()) and not args.overwrite:  # said now, not after minutes of episodes
-        fresh_out_dir(out, False, ())
+    files = {f"--out's {name}": out / name for name in BUDGET_OUTPUTS}
+    inputs = [args.target_image] if args.target_image else []
+    check_apart(inputs, files)  # an input named like an output is never replaced, nor removed by --overwrite
+    check_replaceable(files, overwrite=True, root=out)
+    if out.is_dir() and any(p.name != MANIFEST_NAME for p in out.iterdir()) and not args.overwrite:
+        fresh_out_dir(out, False, ())  # said now, not after minutes of episodes
     scene = _target_overrides(args)
     if args.arm is not None:
         scene["arm"] = args.arm
@@ -63,7 +70,7 @@ def cmd_budget(args) -> int:
                   + (f", then {args.episodes} servo episodes" if args.episodes else ""), file=sys.stderr, flush=True)
             done.append(b.estimate(row, args.episodes, progress, **scene))
         rows = done
-    out = fresh_out_dir(args.out, args.overwrite, ("budget.json", "budget.md", "budget.png"))
+    out = fresh_out_dir(args.out, args.overwrite, BUDGET_OUTPUTS, inputs=inputs)
     text = ("The pose bound (translation / rotation, 1-σ) on the template the loop tracks at the goal (template "
             "px; its inset, negative where the loop switches to a template grown beyond the target's outline):\n\n"
             + b.table(rows))
