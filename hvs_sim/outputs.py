@@ -23,7 +23,8 @@ from pathlib import Path
 
 from hvs_sim.errors import ConfigError, OutputError
 
-MANIFEST_NAME = ".hvs_sim-outputs.json"  # in each folder hvs_sim writes into: the files it wrote there
+MANIFEST_NAME = ".hvs_sim-outputs"  # in each folder hvs_sim writes into: the files it wrote there (JSON; no .json
+# suffix, so that a glob of a folder's *.json, e.g. a sweep's tasks, does not meet it)
 MANIFEST_VERSION = 1
 MIN_FREE_BYTES = 8 << 20  # a native writer stops before a chunk that would leave less than this free
 OUTPUT_ERRNOS = frozenset({errno.ENOSPC, errno.EROFS, errno.ENAMETOOLONG, errno.EACCES, errno.EDQUOT, errno.EFBIG})
@@ -138,8 +139,8 @@ def _update_manifest(folder: Path, add=(), remove=()) -> None:
 
 
 def record(paths) -> None:
-    """Note in each file's folder that hvs_sim writes it (before the file appears, so that a later --overwrite may
-    remove it even when this command is killed before it finishes)."""
+    """Note in each file's folder that hvs_sim wrote it (once it is whole there), so that a later --overwrite may
+    remove it."""
     by_folder: dict[Path, list[str]] = {}
     for p in paths:
         p = Path(p).absolute()
@@ -337,21 +338,21 @@ def temporary_beside(path) -> Path:
     return tmp
 
 
-def settle(tmp: Path, final, keep: bool, recorded: bool = False) -> None:
+def settle(tmp: Path, final, keep: bool, recorded: bool | None = False) -> None:
     """A temporary written beside its target (temporary_beside; a file, or a folder such as a ROS 2 bag), renamed
-    into place when `keep` (and recorded in the folder's manifest, unless `recorded` already, as a batch), else
-    removed."""
+    into place when `keep` and recorded in the folder's manifest (`recorded`: True when the caller records a batch
+    itself, None for a file hvs_sim manages without a manifest, such as a sweep's task records), else removed."""
     tmp, final = Path(tmp), Path(final)
     _pending.discard(tmp.absolute())
     if keep:
-        if not recorded:
-            record([final])
         try:
             os.replace(tmp, final)
         except OSError as exc:
             _remove(tmp)
             raise output_error(final, exc) from None
         _completed.append(final)
+        if recorded is False:
+            record([final])
     else:
         _remove(tmp)
 
@@ -363,15 +364,15 @@ def _remove(tmp: Path) -> None:
         tmp.unlink(missing_ok=True)
 
 
-def write_atomic(path, text: str) -> None:
+def write_atomic(path, text: str, recorded: bool | None = False) -> None:
     """Write through a temporary file in the same folder (named by this process), then rename: a reader never sees
-    half a file, and an interrupted write leaves the old one."""
+    half a file, and an interrupted write leaves the old one (`recorded`: as settle's)."""
     path = Path(path)
     tmp = temporary_beside(path)
     try:
         with open_output(tmp) as f:
             f.write(text)
-        settle(tmp, path, keep=True)
+        settle(tmp, path, keep=True, recorded=recorded)
     except OSError as exc:  # a full disk, a folder gone: say which file, keep the one that was there
         if isinstance(exc, OutputError):
             raise
@@ -412,7 +413,7 @@ def save_figure(fig, path, **kwargs) -> Path:
     return write_with(path, lambda tmp: fig.savefig(tmp, format=fmt, **kwargs))
 
 
-def write_image(path, bgr, recorded: bool = False) -> Path:
+def write_image(path, bgr, recorded: bool | None = False) -> Path:
     """An image (BGR, as OpenCV) encoded in memory and written whole by the layer: a full disk fails the write
     itself, never leaving a truncated image that the encoder reported as written."""
     import cv2

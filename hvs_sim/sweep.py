@@ -304,7 +304,7 @@ def _portable(params: dict) -> dict:
 def _write_atomic(path: Path, data: dict) -> None:
     from hvs_sim.outputs import write_atomic
 
-    write_atomic(path, json.dumps(data, indent=1))
+    write_atomic(path, json.dumps(data, indent=1), recorded=None)  # the sweep's own folder: spec.json marks it
 
 
 def _run_local(jobs, workers, on_done, progress) -> None:

@@ -15,7 +15,7 @@ import pytest
 from hvs_sim.cli import build_parser, main
 from hvs_sim.errors import InputError, StateError
 from hvs_sim.loop import LoopConfig, ServoLoop
-from hvs_sim.outputs import fresh_out_dir
+from hvs_sim.outputs import fresh_out_dir, record
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 
 
@@ -42,7 +42,8 @@ def test_run_has_no_mount_option_and_checks_its_outputs_first(tmp_path, capsys):
 
 
 def test_scene_refuses_zero_frames_and_a_non_empty_out(tmp_path, capsys):
-    _fails(["scene", "--frames", "0", "--out", str(tmp_path / "a")], capsys, "--frames must be >= 1")
+    _fails(["scene", "--frames", "0", "--out", str(tmp_path / "a")], capsys, "--frames must be from 1 to")
+    _fails(["scene", "--frames", "100000000", "--out", str(tmp_path / "a")], capsys, "--frames must be from 1 to 36000")
     (tmp_path / "b").mkdir()
     (tmp_path / "b" / "old.txt").write_text("x")
     _fails(["scene", "--frames", "1", "--out", str(tmp_path / "b")], capsys, "not empty", "--overwrite")
@@ -65,6 +66,9 @@ def test_bench_refuses_a_non_empty_out_and_overwrite_replaces_only_its_own_files
     (out / "fig7_walk_by.png").write_bytes(b"stale")
     (out / "notes.txt").write_text("mine")
     _fails(["bench", "track", "--smoke", "--out", str(out)], capsys, "not empty", "fig7_walk_by.png")
+    fresh_out_dir(out, True, ("summary.json", "*.png"))  # no manifest: hvs_sim wrote none of them, none goes
+    assert (out / "fig7_walk_by.png").read_bytes() == b"stale" and (out / "notes.txt").read_text() == "mine"
+    record([out / "fig7_walk_by.png"])  # as an earlier benchmark writing it would have
     fresh_out_dir(out, True, ("summary.json", "*.png"))
     assert not (out / "fig7_walk_by.png").exists() and (out / "notes.txt").read_text() == "mine"
 

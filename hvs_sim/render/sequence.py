@@ -74,7 +74,6 @@ def write_sequence(scenario: Scenario, out_dir: Path, fmt: str = "mp4", n_frames
         writer = Mp4Writer(video_tmp, scenario.fps, (cam.width, cam.height), shown=out_dir / "frames.mp4")
     else:
         (out_dir / "frames").mkdir(exist_ok=True)
-        record(out_dir / "frames" / f"{i:05d}.png" for i in range(total))  # one manifest update, not one a frame
     rows, cams, joints, corners = [], [], [], []
     done = interrupted = False
     try:
@@ -85,6 +84,8 @@ def write_sequence(scenario: Scenario, out_dir: Path, fmt: str = "mp4", n_frames
             raise
         done = interrupted = True
     finally:
+        if writer is None:  # the PNGs written whole, in one manifest update rather than one a frame
+            record(out_dir / "frames" / f"{i:05d}.png" for i in range(len(rows)))
         if writer is not None:
             closed = False
             try:
