@@ -26,11 +26,12 @@ from hvs_sim.errors import ConfigError, OutputError
 MANIFEST_NAME = ".hvs_sim-outputs"  # in each folder hvs_sim writes into: the files it wrote there (JSON; no .json
 # suffix, so that a glob of a folder's *.json, e.g. a sweep's tasks, does not meet it)
 MANIFEST_VERSION = 1
+TEMPORARY_STEM, TEMPORARY_SUFFIX = 100, 20  # a temporary's name keeps this much of its target's: always a legal name
 MIN_FREE_BYTES = 8 << 20  # a native writer stops before a chunk that would leave less than this free
 OUTPUT_ERRNOS = frozenset({errno.ENOSPC, errno.EROFS, errno.ENAMETOOLONG, errno.EACCES, errno.EDQUOT, errno.EFBIG})
 
 _completed: list[Path] = []  # the outputs this command settled, in order (what an error message says is complete)
-_pending: set[Path] = set()  # temporaries written and not yet settled (removed when the command fails)
+_pending: dict[Path, Path] = {}  # temporaries written and not yet settled → their final names (removed on failure)
 
 
 # ---------------------------------------------------------------------------- the command's bookkeeping
@@ -66,8 +67,17 @@ def discard_pending() -> None:
     _pending.clear()
 
 
+def shown_name(path) -> Path:
+    """The file the user asked for, where `path` is one of this command's temporaries (temporary_beside)."""
+    if path is None:
+        return path
+    return _pending.get(Path(path).absolute(), Path(path))
+
+
 def output_error(path, exc: BaseException) -> OutputError:
-    """An OSError (or a native writer's failure) while writing `path` as the OutputError the user sees."""
+    """An OSError (or a native writer's failure) while writing `path` (or its temporary) as the OutputError the user
+    sees."""
+    path = shown_name(path)
     why = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
     if getattr(exc, "errno", None) == errno.ENAMETOOLONG:
         why += f" (a file name may have at most {_name_max(path)} bytes)"
@@ -133,9 +143,12 @@ def _update_manifest(folder: Path, add=(), remove=()) -> None:
             tmp.write_text(json.dumps({"tool": "hvs_sim", "version": MANIFEST_VERSION, "files": sorted(files)},
                                       indent=1))
             os.replace(tmp, target)
-        except OSError as exc:
+        except OSError as exc:  # the outputs themselves are whole: an unlisted one is only never removed (safe)
             tmp.unlink(missing_ok=True)
-            raise output_error(target, exc) from None
+            import sys
+
+            print(f"hvs-sim: warning: could not update {target} ({exc.strerror or exc}); hvs_sim's files there are "
+                  "not listed, so a later --overwrite leaves them in place", file=sys.stderr)
 
 
 def record(paths) -> None:
@@ -232,9 +245,9 @@ def check_output_file(path, flag: str) -> Path | None:
     if str(path).strip() == "":
         raise ConfigError(f"{flag} is empty; give a file name")
     path = Path(path)
+    check_name_length(path, flag)
     if path.is_dir():
         raise ConfigError(f"{flag} {path} is a folder; give a file name such as {path / ('run' + _suffix(flag))}")
-    check_name_length(path, flag)
     prepare_out_dir(path.parent, f"{flag}'s")
     if path.is_symlink():
         raise ConfigError(f"{flag} {path} is a symbolic link; hvs_sim does not write through links: give a new name")
@@ -244,11 +257,10 @@ def check_output_file(path, flag: str) -> Path | None:
 def check_name_length(path, flag: str) -> None:
     """A name the file system cannot hold (with the temporary's longer name beside it) is refused before the run."""
     limit = _name_max(path)
-    longest = len(os.fsencode(temporary_beside(path).name))
-    if longest > limit:
-        raise ConfigError(f"{flag} {path}: the file name is too long ({len(os.fsencode(Path(path).name))} bytes; this "
-                          f"file system takes names up to {limit} bytes, and hvs_sim needs {longest - len(os.fsencode(Path(path).name))} "
-                          "more for its temporary); give a shorter name")
+    length = len(os.fsencode(Path(path).name))
+    if length > limit:
+        raise ConfigError(f"{flag} {path}: the file name is too long ({length} bytes; this file system takes names "
+                          f"up to {limit} bytes); give a shorter name")
 
 
 def _suffix(flag: str) -> str:
@@ -274,13 +286,14 @@ def check_replaceable(paths: dict[str, Path | None], overwrite: bool = False, ro
 
 def check_apart(inputs, outputs: dict[str, Path | None]) -> None:
     """Refuse, before any work, an output that is an input or lies inside an input folder, two outputs that are one
-    file, and an output that exists and is not a regular file (a device, a FIFO, a folder). Paths are compared
-    resolved (links followed)."""
+    file, one inside another, an output whose name is too long, and an output that exists and is not a regular file
+    (a device, a FIFO, a folder). Paths are compared resolved (links followed)."""
     ins = [_resolve(p, "input") for p in inputs]
     seen: dict[Path, str] = {}
     for what, path in outputs.items():
         if path is None:
             continue
+        check_name_length(path, what)
         real = _resolve(path, what)
         if real.is_dir():
             raise ConfigError(f"{what} {path} is a folder; give a file name")
@@ -333,8 +346,8 @@ def temporary_beside(path) -> Path:
     """A unique temporary name in `path`'s folder, with its suffix kept (writers such as OpenCV's pick the format
     from it), for a file renamed into place when complete (`os.replace`). It is removed if the command fails."""
     path = Path(path)
-    tmp = path.with_name(f".{path.stem[:100]}.{os.getpid()}.tmp{path.suffix[:20]}")
-    _pending.add(tmp.absolute())
+    tmp = path.with_name(f".{path.stem[:TEMPORARY_STEM]}.{os.getpid()}.tmp{path.suffix[:TEMPORARY_SUFFIX]}")
+    _pending[tmp.absolute()] = path
     return tmp
 
 
@@ -343,7 +356,7 @@ def settle(tmp: Path, final, keep: bool, recorded: bool | None = False) -> None:
     into place when `keep` and recorded in the folder's manifest (`recorded`: True when the caller records a batch
     itself, None for a file hvs_sim manages without a manifest, such as a sweep's task records), else removed."""
     tmp, final = Path(tmp), Path(final)
-    _pending.discard(tmp.absolute())
+    _pending.pop(tmp.absolute(), None)
     if keep:
         try:
             os.replace(tmp, final)
@@ -380,7 +393,7 @@ def write_atomic(path, text: str, recorded: bool | None = False) -> None:
                           + ("the previous complete file is kept" if path.exists() else "nothing was written")
                           + f"; {complete_note()}") from None
     finally:
-        _pending.discard(tmp.absolute())
+        _pending.pop(tmp.absolute(), None)
         tmp.unlink(missing_ok=True)
 
 
@@ -401,7 +414,7 @@ def write_with(path, write, need_bytes: int = 0) -> Path:
         _remove(tmp)
         raise
     except OSError as exc:
-        _pending.discard(tmp.absolute())
+        _pending.pop(tmp.absolute(), None)
         _remove(tmp)
         raise output_error(path, exc) from None
     return path
@@ -431,7 +444,7 @@ def write_image(path, bgr, recorded: bool | None = False) -> Path:
         _remove(tmp)
         raise
     except OSError as exc:
-        _pending.discard(tmp.absolute())
+        _pending.pop(tmp.absolute(), None)
         _remove(tmp)
         raise output_error(path, exc) from None
     return path
@@ -445,10 +458,13 @@ class _CountedFile:
 
     def write(self, data):
         n = len(data.encode() if isinstance(data, str) else data)
-        ensure_space(self._path, n, native=False)
-        written = self._f.write(data)
-        account(self._path, n)
-        return written
+        try:
+            ensure_space(self._path, n, native=False)
+            return self._f.write(data)
+        except OSError as exc:
+            if isinstance(exc, OutputError):
+                raise
+            raise output_error(self._path, exc) from None
 
     def __getattr__(self, name):
         return getattr(self._f, name)

@@ -120,8 +120,8 @@ def main(argv: list[str] | None = None) -> int:
         if not outputs.is_output_failure(exc):
             raise
         outputs.discard_pending()  # a writer the layer does not wrap: still no traceback and no partial file
-        print(f"hvs-sim: error: {exc.filename or 'a file'}: {exc.strerror or exc}; {outputs.complete_note()}",
-              file=sys.stderr)
+        print(f"hvs-sim: error: {outputs.shown_name(exc.filename) or 'a file'}: {exc.strerror or exc}; "
+              f"{outputs.complete_note()}", file=sys.stderr)
         return 2
     except SystemExit as exc:  # user code (a plugin) called sys.exit: not a result, say so
         outputs.discard_pending()

@@ -24,6 +24,9 @@ def cmd_run(args) -> int:
     from hvs_sim.outputs import check_apart
     from hvs_sim.runner import steps_csv_path
 
+    for flag in ("json", "rrd", "mcap", "figures"):
+        if getattr(args, flag) is not None and not str(getattr(args, flag)).strip():
+            raise ConfigError(f"--{flag} is empty; give a {'folder' if flag in ('mcap', 'figures') else 'file name'}")
     if args.mcap and Path(args.mcap).exists():
         raise ConfigError(f"--mcap {args.mcap} exists: a ROS 2 bag is a new folder; give a path that does not exist")
     check_apart([p for p in (args.target_image, args.wall_images) if p],
