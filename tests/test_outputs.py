@@ -363,3 +363,11 @@ def test_check_replaceable_and_check_apart_directly(tmp_path):
     outputs.check_replaceable({"a": tmp_path / "a"})  # now hvs_sim's
     with pytest.raises(ConfigError, match="one file"):
         outputs.check_apart([], {"x": tmp_path / "a", "y": tmp_path / "a"})
+
+
+def test_dataset_onto_a_full_disk_is_refused_before_hdf5_writes(tmp_path, capsys, full_disk):
+    """HDF5 segfaults on a disk that fills under it: the layer refuses first, and nothing is left in --out."""
+    full_disk(1_000)
+    _fails(["dataset", "--episodes", "1", "--max-steps", "3", "--out", str(tmp_path / "d")], capsys,
+           "could not write the dataset", "No space left")
+    assert [p.name for p in (tmp_path / "d").iterdir()] == []
