@@ -505,15 +505,17 @@ def add_track_parser(sub) -> None:
 
 
 def cmd_track(args) -> int:
+    from hvs_sim.cli.common import stop_reason
+
     try:
         result = track_footage(args.path, args.roi, args.tracker, args.out, args.rrd,
                                settings=parse_settings(args.set), overwrite=args.overwrite, target=args.target,
                                mcap=args.mcap)
     except KeyboardInterrupt:  # before the first frame was tracked: nothing was written
-        print("hvs-sim: interrupted (Ctrl-C) before tracking started; nothing written", file=sys.stderr)
+        print(f"hvs-sim: {stop_reason()} before tracking started; nothing written", file=sys.stderr)
         return EXIT_INTERRUPTED
     print(result.summary())
     if result.interrupted:
-        print("hvs-sim: interrupted (Ctrl-C); the frames tracked so far are kept", file=sys.stderr)
+        print(f"hvs-sim: {stop_reason()}; the frames tracked so far are kept", file=sys.stderr)
         return EXIT_INTERRUPTED
     return 0

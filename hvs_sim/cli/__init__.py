@@ -34,6 +34,7 @@ from hvs_sim.cli.common import (
     _provenance,
     _scenario_from_args,
     _target_overrides,
+    stop_reason,
 )
 from hvs_sim.cli.misc import (
     add_budget_parser,
@@ -129,7 +130,7 @@ def main(argv: list[str] | None = None) -> int:
               "was stopped there (a plugin must return or raise, not exit)", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"hvs-sim: {'terminated (SIGTERM)' if _SIGTERM_SEEN else 'interrupted (Ctrl-C)'}: stopped; what was "
+        print(f"hvs-sim: {stop_reason()}: stopped; what was "
               "finished is kept, and summaries written so far say interrupted", file=sys.stderr)
         code = EXIT_SIGINT
     finally:
