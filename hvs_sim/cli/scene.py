@@ -25,6 +25,10 @@ def cmd_scene(args) -> int:
                           f"fps), got {args.frames}")
     scenario = _scenario_from_args(args)
     inputs = _check_scene_outputs(args, scenario.n_frames if args.frames is None else args.frames)
+    if args.target_image:  # a damaged image is refused before --out is made
+        from hvs_sim.scene.images import load_image
+
+        load_image(args.target_image, "target image")
     out = fresh_out_dir(args.out, args.overwrite, SCENE_OUTPUTS, inputs=inputs)
     meta = _write(scenario, out, args)
     # a preview: the first frame with the ground-truth outline and centre
