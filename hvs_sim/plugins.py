@@ -84,7 +84,7 @@ def _time_limit(what: str):
 def _outside_failure(exc: BaseException) -> str:
     """How outside code failed, for a message: an exception, or a sys.exit (which is not a result)."""
     if isinstance(exc, SystemExit):
-        return f"it called sys.exit({exc.code!r}), which a plugin may not do (return or raise instead)"
+        return f"as it called sys.exit({exc.code!r}), which a plugin may not do (return or raise instead)"
     return f"{type(exc).__name__}: {exc}"
 
 
@@ -225,7 +225,8 @@ def _load_file(path: str) -> object:
         raise
     except (Exception, SystemExit) as exc:  # noqa: BLE001 - any failure of outside code becomes a ConfigError
         del sys.modules[name]
-        raise ConfigError(f"plugin file {path!r} failed to import: {_outside_failure(exc)}") from None
+        raise ConfigError(f"plugin file {path!r} failed to import{' ' if isinstance(exc, SystemExit) else ': '}"
+                          f"{_outside_failure(exc)}") from None
     module.__hvs_plugin_ref__ = f"{p}:"  # + a callable's name: the file's portable reference (_portable_ref)
     return module
 
@@ -318,7 +319,8 @@ def build(kind: str, text: str, **settings):
     except HvsError:
         raise
     except (Exception, SystemExit) as exc:  # noqa: BLE001 - any failure of outside code becomes a ConfigError
-        raise ConfigError(f"{kind} {text!r}: its factory failed: {_outside_failure(exc)}") from None
+        how = _outside_failure(exc) if isinstance(exc, SystemExit) else f"with {_outside_failure(exc)}"
+        raise ConfigError(f"{kind} {text!r}: its factory failed {how}") from None
     missing = [m for m in INTERFACE[kind] if not callable(getattr(obj, m, None))]
     if missing:
         raise ConfigError(f"{kind} {text!r}: its factory returned {type(obj).__name__}, which lacks "

@@ -5,6 +5,7 @@ layer's writes with ENOSPC after N bytes."""
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import json
 import os
@@ -371,3 +372,54 @@ def test_dataset_onto_a_full_disk_is_refused_before_hdf5_writes(tmp_path, capsys
     _fails(["dataset", "--episodes", "1", "--max-steps", "3", "--out", str(tmp_path / "d")], capsys,
            "could not write the dataset", "No space left")
     assert [p.name for p in (tmp_path / "d").iterdir()] == []
+
+
+# ------------------------------------------------------------------------- a real small disk, where one can be mounted
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 512 kB tmpfs (root only: skipped elsewhere), unmounted after the test."""
+    import subprocess
+
+    where = tmp_path / "small"
+    where.mkdir()
+    if os.geteuid() != 0 or subprocess.run(["mount", "-t", "tmpfs", "-o", "size=512k", "tmpfs", str(where)],
+                                           capture_output=True, check=False).returncode:
+        pytest.skip("no small tmpfs here (mounting one needs root)")
+    yield where
+    subprocess.run(["umount", "-l", str(where)], capture_output=True, check=False)
+
+
+def _fill(disk: Path, leave: int = 0) -> None:
+    """Fill the disk to the last `leave` bytes."""
+    with open(disk / "filler", "wb", buffering=0) as f, contextlib.suppress(OSError):
+        while True:
+            f.write(b"\0" * 4096)
+    if leave:
+        size = (disk / "filler").stat().st_size
+        os.truncate(disk / "filler", max(0, size - leave))
+
+
+def _cli(*argv) -> tuple[int, str]:
+    """hvs-sim in its own process: a native crash (a segfault) shows as a negative exit code, not a dead test run."""
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-m", "hvs_sim.cli", *map(str, argv)], capture_output=True, text=True,
+                          timeout=300, check=False, env={**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")})
+    return done.returncode, done.stderr
+
+
+def test_every_writer_onto_a_real_full_disk_says_so_and_leaves_no_partial_file(small_disk, video):
+    _fill(small_disk, leave=120_000)  # room for a few PNG frames, not 40
+    code, err = _cli("scene", *SMALL, "--frames", "40", "--format", "png", "--out", small_disk / "s")
+    assert code == 2 and "No space left" in err and "Traceback" not in err, err
+    assert all(cv2.imread(str(p)) is not None for p in (small_disk / "s" / "frames").glob("*.png"))
+    _fill(small_disk)
+    for argv in ([*RUN, "--json", small_disk / "r.json"], ["scene", *SMALL, "--frames", "3", "--out", small_disk / "m"],
+                 ["track", video, "--roi", "40,30,60,50", "--tracker", "ecc", "--out", small_disk / "t"],
+                 ["dataset", "--episodes", "1", "--max-steps", "3", "--out", small_disk / "d"]):
+        code, err = _cli(*argv)
+        assert code == 2 and "Traceback" not in err and ("No space left" in err or "cannot write" in err), (argv, err)
+        _no_partial(small_disk)
