@@ -364,7 +364,7 @@ def settle(tmp: Path, final, keep: bool, recorded: bool | None = False) -> None:
             _remove(tmp)
             raise output_error(final, exc) from None
         _completed.append(final)
-        if recorded is False:
+        if recorded is False and not final.is_dir():  # a folder (a ROS 2 bag) is never removed, so not listed
             record([final])
     else:
         _remove(tmp)
