@@ -342,6 +342,45 @@ def test_sweep_lock_onto_a_full_disk(tmp_path, capsys, monkeypatch):
         sweep.run_sweep(spec, tmp_path / "o", progress=False)
 
 
+def test_a_figure_onto_a_full_disk(tmp_path, full_disk):
+    """Every figure (run's, the benchmarks', budget's, a sweep report's) is written by save_figure."""
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure()
+    (tmp_path / "fig.png").write_bytes(b"old")
+    full_disk(100)
+    with pytest.raises(OutputError, match=r"fig\.png .No space left"):
+        outputs.save_figure(fig, tmp_path / "fig.png")
+    plt.close(fig)
+    assert (tmp_path / "fig.png").read_bytes() == b"old"
+    _no_partial(tmp_path)
+
+
+def test_an_interrupted_scene_keeps_the_frames_it_rendered(tmp_path):
+    """SIGTERM or Ctrl-C in a render: what was finished is kept, as the message says, marked interrupted."""
+    from hvs_sim.render.sequence import write_sequence
+    from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+
+    scenario = make_scenario("walk_by", camera=CameraConfig(width=160, height=120))
+    seen = []
+
+    def stop_after_two(frame, gt):
+        seen.append(gt.frame)
+        if len(seen) == 2:
+            raise KeyboardInterrupt
+
+    for fmt in ("mp4", "png"):
+        out = tmp_path / fmt
+        with pytest.raises(KeyboardInterrupt):
+            write_sequence(scenario, out, fmt=fmt, n_frames=5, progress=False, on_frame=stop_after_two)
+        seen.clear()
+        meta = json.loads((out / "scenario.json").read_text())
+        assert meta["interrupted"] is True and meta["frames"] == 1  # the frame whose on_frame finished
+        assert len((out / "ground_truth.csv").read_text().splitlines()) == 2
+        assert (out / "frames.mp4").is_file() if fmt == "mp4" else (out / "frames" / "00000.png").is_file()
+        _no_partial(out)
+
+
 def test_an_unwrapped_write_error_is_still_one_line(tmp_path, capsys, monkeypatch):
     """A writer outside the layer (a library's own file) that hits a full disk: no traceback, the temporaries go."""
     from hvs_sim.cli import scene
