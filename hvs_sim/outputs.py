@@ -43,10 +43,6 @@ def begin_command() -> None:
     _pending.clear()
 
 
-def completed() -> list[Path]:
-    return list(_completed)
-
-
 def complete_note() -> str:
     """Which outputs of this command are whole on disk, for an error message."""
     if not _completed:
@@ -326,9 +322,14 @@ def fresh_out_dir(out, overwrite: bool, outputs: tuple[str, ...] = (), flag: str
     """An output folder for a new run: empty, or with --overwrite the files an earlier hvs_sim command recorded
     writing there removed first (`clear`; a command that renames its outputs into place at the end leaves them
     until then), so no stale result stays beside new ones. Only files in the folder's manifests go, never by name
-    pattern, never through a symbolic link, never an `inputs` path; anything else is left alone. `outputs` (names
-    or patterns this command writes) is kept for the callers' documentation."""
+    pattern, never through a symbolic link, never an `inputs` path; anything else is left alone. `outputs` (the
+    names, or folder/pattern, this command writes there): none may be a link or lie in a linked folder."""
     out = prepare_out_dir(out, flag)
+    for name in outputs:
+        target = out / name
+        if any(c in target.name for c in "*?["):
+            target = target.parent / "_"  # a pattern: its folder is what must not be a link
+        check_replaceable({f"{flag}'s {name}": target}, overwrite=True, root=out)
     entries = sorted(p.name for p in out.iterdir() if p.name != MANIFEST_NAME)
     if entries and not overwrite:
         shown = ", ".join(entries[:5]) + (", …" if len(entries) > 5 else "")

@@ -59,11 +59,12 @@ class PluginTimeout(ConfigError):
 @contextlib.contextmanager
 def _time_limit(what: str):
     """Stop user code that hangs (SIGALRM, in the main thread, where Python code can be interrupted) with a
-    PluginTimeout naming it; elsewhere (a worker thread) it runs unbounded."""
+    PluginTimeout naming it; elsewhere (a worker thread), or under a caller's own alarm, it is left to that."""
     import signal
     import threading
 
-    if threading.current_thread() is not threading.main_thread() or not PLUGIN_TIMEOUT_S:
+    if threading.current_thread() is not threading.main_thread() or not PLUGIN_TIMEOUT_S or \
+            signal.getitimer(signal.ITIMER_REAL)[0] > 0:  # another timer (the caller's own) is already watching
         yield
         return
     limit = PLUGIN_TIMEOUT_S

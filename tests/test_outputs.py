@@ -395,6 +395,16 @@ def test_an_unwrapped_write_error_is_still_one_line(tmp_path, capsys, monkeypatc
     _no_partial(tmp_path)
 
 
+def test_a_benchmark_out_with_a_link_among_its_outputs_is_refused(tmp_path):
+    out = tmp_path / "bench"
+    out.mkdir()
+    (tmp_path / "elsewhere.json").write_text("mine")
+    (out / "summary.json").symlink_to(tmp_path / "elsewhere.json")
+    with pytest.raises(ConfigError, match="summary.json .*symbolic link"):
+        outputs.fresh_out_dir(out, True, ("summary.json", "table.md", "*.png"))
+    assert (tmp_path / "elsewhere.json").read_text() == "mine"
+
+
 def test_check_replaceable_and_check_apart_directly(tmp_path):
     (tmp_path / "a").write_text("x")
     with pytest.raises(ConfigError, match="not written by hvs_sim"):
