@@ -54,7 +54,15 @@ from tqdm import tqdm
 
 from hvs_sim.cliargs import DEFAULT_TRACKER, add_settings_option, parse_settings
 from hvs_sim.errors import ConfigError, InputError, OutputError
-from hvs_sim.outputs import check_apart, check_output_file, check_replaceable, fresh_out_dir, settle, temporary_beside
+from hvs_sim.outputs import (
+    check_apart,
+    check_output_file,
+    check_replaceable,
+    fresh_out_dir,
+    open_output,
+    settle,
+    temporary_beside,
+)
 from hvs_sim.plugins import check_any_tracker, make_any_tracker
 from hvs_sim.tracking import TRACKER_NAMES, Track
 from hvs_sim.tracking.frames import MIN_ROI, check_roi
@@ -302,7 +310,7 @@ class TrackOutputs:
 
             self.bag = FootageBag(self.mcap, fps, name=self.final[-1].name)
             self._open.callback(self.bag.close)
-        self.csv = csv.writer(self._open.enter_context(self.csv_path.open("w", newline="")))
+        self.csv = csv.writer(self._open.enter_context(open_output(self.csv_path)))
         self.csv.writerow(CSV_COLUMNS)
 
     def write(self, index: int, frame: np.ndarray, track: Track) -> None:

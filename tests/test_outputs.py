@@ -309,6 +309,37 @@ def test_track_video_onto_a_full_disk(tmp_path, capsys, full_disk, video):
     _no_partial(tmp_path)
 
 
+def test_track_csv_onto_a_full_disk(tmp_path, capsys, full_disk, monkeypatch, video):
+    from hvs_sim import videoio
+
+    monkeypatch.setattr(videoio.Mp4Writer, "write", lambda self, rgb: None)  # the CSV meets the full disk first
+    full_disk(200)
+    _fails(["track", str(video), "--roi", "40,30,60,50", "--tracker", "ecc", "--out", str(tmp_path / "o")], capsys,
+           "track.csv", "No space left")
+    assert list((tmp_path / "o").iterdir()) == []
+    _no_partial(tmp_path)
+
+
+def test_bench_and_sweep_report_onto_a_full_disk(tmp_path, capsys, full_disk, monkeypatch):
+    from hvs_sim.bench import track
+    from hvs_sim.sweep import parse_spec, report, run_sweep
+
+    def bench(cfg, out, progress=True):  # the benchmark's own work, stubbed: its summary is what is rewritten
+        outputs.write_atomic(Path(out) / "summary.json", "{}")
+        return {"occlusion_scenarios": {}, "target_set": {}}
+
+    monkeypatch.setattr(track, "run_track_bench", bench)
+    spec = parse_spec('kind = "servo"\n[axes]\nseed = [1]\n[fixed]\ntracker = "ground_truth"\nsteps = 2\n'
+                      'scenario = "clear"\ncamera = "ideal"\n')
+    run_sweep(spec, tmp_path / "sw", progress=False)
+    disk = full_disk(10)
+    disk.used = disk.capacity  # full from here on
+    _fails(["bench", "track", "--smoke", "--out", str(tmp_path / "b")], capsys, "summary.json", "No space left")
+    with pytest.raises(OutputError, match=r"report\.md .No space left"):
+        report(tmp_path / "sw", ["seed"])
+    _no_partial(tmp_path)
+
+
 def test_budget_figure_onto_a_full_disk(tmp_path, capsys, full_disk):
     full_disk(2_000)
     _fails(["budget", "--bound-only", "--out", str(tmp_path / "o")], capsys, "budget.png", "No space left")
