@@ -31,6 +31,7 @@ MIN_FREE_BYTES = 8 << 20  # a native writer stops before a chunk that would leav
 OUTPUT_ERRNOS = frozenset({errno.ENOSPC, errno.EROFS, errno.ENAMETOOLONG, errno.EACCES, errno.EDQUOT, errno.EFBIG})
 
 _completed: list[Path] = []  # the outputs this command settled, in order (what an error message says is complete)
+_command: list[bool] = []  # non-empty while a CLI command runs (begin_command .. end_command): then the note is given
 _pending: dict[Path, Path] = {}  # temporaries written and not yet settled → their final names (removed on failure)
 
 
@@ -41,10 +42,17 @@ def begin_command() -> None:
     """A new command: forget what an earlier one (in the same process) wrote."""
     _completed.clear()
     _pending.clear()
+    _command[:] = [True]
+
+
+def end_command() -> None:
+    _command.clear()
 
 
 def complete_note() -> str:
-    """Which outputs of this command are whole on disk, for an error message."""
+    """Which outputs of this command are whole on disk, for an error message (outside a command: nothing to say)."""
+    if not _command:
+        return ""
     if not _completed:
         return "no output of this command is complete"
     names = [str(p) for p in dict.fromkeys(_completed)]
@@ -77,7 +85,11 @@ def output_error(path, exc: BaseException) -> OutputError:
     why = getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
     if getattr(exc, "errno", None) == errno.ENAMETOOLONG:
         why += f" (a file name may have at most {_name_max(path)} bytes)"
-    return OutputError(f"could not write {path} ({why}); {complete_note()}")
+    try:
+        there = "the previous complete file is kept" if Path(path).is_file() else "nothing was written there"
+    except OSError:
+        there = "nothing was written there"
+    return OutputError("; ".join(filter(None, (f"could not write {path} ({why})", there, complete_note()))))
 
 
 def is_output_failure(exc: BaseException) -> bool:
@@ -390,9 +402,7 @@ def write_atomic(path, text: str, recorded: bool | None = False) -> None:
     except OSError as exc:  # a full disk, a folder gone: say which file, keep the one that was there
         if isinstance(exc, OutputError):
             raise
-        raise OutputError(f"could not write {path} ({exc.strerror or exc}); "
-                          + ("the previous complete file is kept" if path.exists() else "nothing was written")
-                          + f"; {complete_note()}") from None
+        raise output_error(path, exc) from None
     finally:
         _pending.pop(tmp.absolute(), None)
         tmp.unlink(missing_ok=True)

@@ -387,28 +387,32 @@ def test_a_figure_onto_a_full_disk(tmp_path, full_disk):
     _no_partial(tmp_path)
 
 
-def test_an_interrupted_scene_keeps_the_frames_it_rendered(tmp_path):
+def test_an_interrupted_scene_keeps_the_frames_it_rendered(tmp_path, monkeypatch):
     """SIGTERM or Ctrl-C in a render: what was finished is kept, as the message says, marked interrupted."""
-    from hvs_sim.render.sequence import write_sequence
+    from hvs_sim.render import sequence
     from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 
     scenario = make_scenario("walk_by", camera=CameraConfig(width=160, height=120))
-    seen = []
+    real = sequence.iterate_sequence
 
-    def stop_after_two(frame, gt):
-        seen.append(gt.frame)
-        if len(seen) == 2:
-            raise KeyboardInterrupt
+    def two_then_stop(*a, **k):  # the third frame's render is interrupted
+        frames = real(*a, **k)
+        yield next(frames)
+        yield next(frames)
+        raise KeyboardInterrupt
 
+    monkeypatch.setattr(sequence, "iterate_sequence", two_then_stop)
     for fmt in ("mp4", "png"):
         out = tmp_path / fmt
         with pytest.raises(KeyboardInterrupt):
-            write_sequence(scenario, out, fmt=fmt, n_frames=5, progress=False, on_frame=stop_after_two)
-        seen.clear()
+            sequence.write_sequence(scenario, out, fmt=fmt, n_frames=5, progress=False)
         meta = json.loads((out / "scenario.json").read_text())
-        assert meta["interrupted"] is True and meta["frames"] == 1  # the frame whose on_frame finished
-        assert len((out / "ground_truth.csv").read_text().splitlines()) == 2
-        assert (out / "frames.mp4").is_file() if fmt == "mp4" else (out / "frames" / "00000.png").is_file()
+        assert meta["interrupted"] is True and meta["frames"] == 2
+        assert len((out / "ground_truth.csv").read_text().splitlines()) == 3
+        if fmt == "mp4":
+            assert int(cv2.VideoCapture(str(out / "frames.mp4")).get(cv2.CAP_PROP_FRAME_COUNT)) == 2
+        else:
+            assert sorted(p.name for p in (out / "frames").glob("*.png")) == ["00000.png", "00001.png"]
         _no_partial(out)
 
 

@@ -134,6 +134,7 @@ def main(argv: list[str] | None = None) -> int:
               "finished is kept, and summaries written so far say interrupted", file=sys.stderr)
         code = EXIT_SIGINT
     finally:
+        outputs.end_command()
         if handle:
             signal.signal(signal.SIGTERM, previous)
     return EXIT_SIGTERM if _SIGTERM_SEEN and code == EXIT_SIGINT else code
