@@ -1,4 +1,4 @@
-# Two entry points: `make demo` (set up + main demo) and `make test` (set up + lint + tests).
+# Two entry points: `make demo` (set up + main demo) and `make test` (set up + lint + results check + tests).
 # The demo's set-up installs the package and what it runs on; the test tools (pytest, hypothesis, Ray, ruff, the
 # test plugins) only come with `make test`.
 VENV ?= .venv
@@ -37,4 +37,6 @@ demo: $(STAMP)
 
 test: $(TEST_STAMP)
 	$(VENV)/bin/ruff check .
+	# the headline tables of README and docs/results.md against the records they cite
+	$(VENV)/bin/hvs-sim results check
 	$(PY) -m pytest tests

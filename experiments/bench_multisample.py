@@ -21,6 +21,7 @@ import numpy as np
 import torch
 
 from hvs_sim.bench.sequences import Sequence
+from hvs_sim.bench.splits import check_tuning_seeds
 from hvs_sim.bench.track import run_tracker, summarize
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import make_scenario
@@ -54,7 +55,10 @@ def main() -> None:
     ap.add_argument("--samples", nargs="+", type=int, default=[0, 4])
     ap.add_argument("--methods", nargs="+", default=["hybrid", "ecc"])
     ap.add_argument("--json", default="experiments/results/multisample.json")
+    ap.add_argument("--allow-test-seeds", action="store_true",
+                    help="allow track test seeds (bench/splits.py), which figures are published on; recorded")
     args = ap.parse_args()
+    check_tuning_seeds("track", args.seeds, args.allow_test_seeds)  # tuning looks at dev seeds only
     Path(args.json).parent.mkdir(parents=True, exist_ok=True)
     torch.set_num_threads(2)
     out = {"machine": platform.machine(), "scenarios": args.scenarios, "seeds": args.seeds, "results": {}}
@@ -78,7 +82,7 @@ def main() -> None:
                       f"median {s['median_px']:.3f} px", flush=True)
             print(f"{cam:15s} multisample {n}: render {row['render_ms_median']:.1f} ms median", flush=True)
             out["results"][f"{cam}/multisample{n}"] = row
-            Path(args.json).write_text(json.dumps(out, indent=2))
+            Path(args.json).write_text(json.dumps({**out, "allow_test_seeds": args.allow_test_seeds}, indent=2))
 
 
 if __name__ == "__main__":

@@ -23,6 +23,7 @@ from pathlib import Path
 import torch
 
 from hvs_sim.bench.sequences import make_sequence
+from hvs_sim.bench.splits import check_tuning_seeds
 from hvs_sim.bench.track import run_tracker, summarize
 from hvs_sim.scene.scenarios import make_scenario
 
@@ -35,7 +36,10 @@ def main() -> None:
     ap.add_argument("--json", default="experiments/results/tracking_core.json")
     ap.add_argument("--imagery", choices=("sim", "natural"), default="sim")
     ap.add_argument("--sources", nargs="+", default=None, help="natural imagery: pictures (default all)")
+    ap.add_argument("--allow-test-seeds", action="store_true",
+                    help="allow track test seeds (bench/splits.py), which figures are published on; recorded")
     args = ap.parse_args()
+    check_tuning_seeds("track", args.seeds, args.allow_test_seeds)  # tuning looks at dev seeds only
     if args.imagery == "natural":
         from hvs_sim.bench.natural import NATURAL_SOURCES, make_natural_sequence
 
@@ -67,7 +71,7 @@ def main() -> None:
         print(f"all      {method:8s} {allf['pct_le_2px']:5.1f}% ≤2px | {allf['median_ms']:.1f} / {allf['p95_ms']:.1f} ms "
               f"(median/p95)", flush=True)
     Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.json).write_text(json.dumps(out, indent=2))
+    Path(args.json).write_text(json.dumps({**out, "allow_test_seeds": args.allow_test_seeds}, indent=2))
 
 
 if __name__ == "__main__":

@@ -35,6 +35,7 @@ from scipy import ndimage
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from hvs_sim.bench.budget import WEAK, template_roi, track_still, weak_directions, weak_offset
+from hvs_sim.bench.splits import check_tuning_seeds
 from hvs_sim.control.ibvs import interaction_matrix
 from hvs_sim.errors import InputError
 from hvs_sim.geometry import offset_pose
@@ -102,7 +103,10 @@ def main() -> None:
     ap.add_argument("--lateral", type=float, default=5.0, help="mm along each of L's two weakest directions")
     ap.add_argument("--cameras", nargs="+", default=["robot_cell"], help="noisy camera presets")
     ap.add_argument("--json", default="experiments/results/servo_floor.json")
+    ap.add_argument("--allow-test-seeds", action="store_true",
+                    help="allow servo test seeds (bench/splits.py), which figures are published on; recorded")
     args = ap.parse_args()
+    check_tuning_seeds("servo", [args.seed], args.allow_test_seeds)  # tuning looks at dev seeds only
     if args.poses < 2 or args.frames < 2:
         raise InputError(f"--poses and --frames must be at least 2, got {args.poses} and {args.frames}")
     out = Path(args.json)
@@ -144,7 +148,7 @@ def main() -> None:
                                    "not_averaged_mm": still[0], "not_averaged_deg": still[1]}
         print(f"{name}: one frame {one[0]:.2f} mm; mean of {args.frames} {mean[0]:.2f} mm, of which "
               f"{still[0]:.2f} mm no averaging removes ({still[1]:.3f}°)")
-    result["wall_s"] = time.perf_counter() - t0
+    result["wall_s"], result["allow_test_seeds"] = time.perf_counter() - t0, args.allow_test_seeds
     write_atomic(out, json.dumps(result, indent=1))
     print(f"wrote {out}")
 

@@ -31,6 +31,7 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from hvs_sim.bench.servo import episode_scenario
+from hvs_sim.bench.splits import check_tuning_seeds
 from hvs_sim.camera_model import sensor_preset
 from hvs_sim.control.ibvs import interaction_matrix
 from hvs_sim.errors import InputError
@@ -107,7 +108,10 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=150)
     ap.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=list(VARIANTS))
     ap.add_argument("--json", default="experiments/results/servo_goal_noise.json")
+    ap.add_argument("--allow-test-seeds", action="store_true",
+                    help="allow servo test seeds (bench/splits.py), which figures are published on; recorded")
     args = ap.parse_args()
+    check_tuning_seeds("servo", args.seeds, args.allow_test_seeds)  # tuning looks at dev seeds only
     if args.frames < BLOCK:
         raise InputError(f"--frames must be at least {BLOCK} (one block), got {args.frames}")
     out = Path(args.json)
@@ -127,7 +131,7 @@ def main() -> None:
                       f"{w2['sd_px']:.4f}", flush=True)
     except KeyboardInterrupt:
         print("interrupted: writing what was measured")
-    out.write_text(json.dumps({"frames": args.frames, "goal_frames": GOAL_FRAMES, "inset_px": GOAL_ROI_INSET_PX,
+    out.write_text(json.dumps({"allow_test_seeds": args.allow_test_seeds, "frames": args.frames, "goal_frames": GOAL_FRAMES, "inset_px": GOAL_ROI_INSET_PX,
                                "wall_s": time.perf_counter() - t0, "runs": rows}, indent=1))
     print(f"wrote {out}")
 

@@ -33,6 +33,7 @@ import numpy as np
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from hvs_sim.bench.budget import WEAK, template_roi, track_still, weak_directions, weak_offset
+from hvs_sim.bench.splits import check_tuning_seeds
 from hvs_sim.errors import InputError
 from hvs_sim.geometry import offset_pose
 from hvs_sim.loopparts import GOAL_FRAMES
@@ -76,7 +77,10 @@ def main() -> None:
                     help="samples per pixel side of the renders (CameraConfig.supersample)")
     ap.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=list(VARIANTS))
     ap.add_argument("--json", default="experiments/results/servo_pose_bias.json")
+    ap.add_argument("--allow-test-seeds", action="store_true",
+                    help="allow servo test seeds (bench/splits.py), which figures are published on; recorded")
     args = ap.parse_args()
+    check_tuning_seeds("servo", [args.seed], args.allow_test_seeds)  # tuning looks at dev seeds only
     if args.poses < 2:
         raise InputError(f"--poses must be at least 2, got {args.poses}")
     out = Path(args.json)
@@ -127,7 +131,7 @@ def main() -> None:
         print(f"{name:24s} weakest {rms[0]:.4f} px ({mm[0]:.2f} mm), 2nd {rms[1]:.4f} px ({mm[1]:.2f} mm), together "
               f"{rows[name]['weak_mm']:.2f} mm | worst corner median {rows[name]['median_worst_corner_px']:.3f} px, "
               f"max {rows[name]['worst_corner_px']:.3f} px")
-    write_atomic(out, json.dumps({"poses": args.poses, "seed": args.seed, "around": args.around,
+    write_atomic(out, json.dumps({"allow_test_seeds": args.allow_test_seeds, "poses": args.poses, "seed": args.seed, "around": args.around,
                                   "supersample": args.supersample, "lateral_mm": args.lateral, "tilt_deg": args.tilt,
                                   "mm_per_px": mm_per_px, "wall_s": time.perf_counter() - t0, "variants": rows,
                                   "pose_errors": poses}, indent=1))

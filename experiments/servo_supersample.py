@@ -23,6 +23,7 @@ import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
+from hvs_sim.bench.splits import check_tuning_seeds
 from hvs_sim.cliargs import near_goal_inset
 from hvs_sim.errors import InputError
 from hvs_sim.outputs import write_atomic
@@ -51,7 +52,10 @@ def main() -> None:
     ap.add_argument("--near-goal-inset", type=near_goal_inset, default="off", metavar="auto|off|PX",
                     help="the loop's near-goal template (as `hvs-sim run --near-goal-inset`; default off, as measured)")
     ap.add_argument("--json", default="experiments/results/servo_supersample.json")
+    ap.add_argument("--allow-test-seeds", action="store_true",
+                    help="allow servo test seeds (bench/splits.py), which figures are published on; recorded")
     args = ap.parse_args()
+    check_tuning_seeds("servo", args.seeds, args.allow_test_seeds)  # tuning looks at dev seeds only
     out = Path(args.json)
     if not out.parent.is_dir():
         raise InputError(f"--json: folder {out.parent} does not exist")
@@ -61,7 +65,7 @@ def main() -> None:
     for r in rows:
         each = ", ".join(f"{x['final_pose_error_mm']:.2f}" for x in r["runs"])
         print(f"{r['camera']:12s} supersample {r['supersample']}: median final pose error {r['median_mm']:.2f} mm ({each})")
-    write_atomic(out, json.dumps({"seeds": args.seeds, "rows": rows}, indent=1))
+    write_atomic(out, json.dumps({"allow_test_seeds": args.allow_test_seeds, "seeds": args.seeds, "rows": rows}, indent=1))
     print(f"wrote {out}")
 
 

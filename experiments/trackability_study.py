@@ -22,6 +22,7 @@ import numpy as np
 from tqdm import tqdm
 
 from hvs_sim.bench.natural import NATURAL_SOURCES, make_natural_sequence
+from hvs_sim.bench.splits import check_tuning_seeds
 from hvs_sim.outputs import write_atomic
 from hvs_sim.texture_measure import structure
 from hvs_sim.tracking import make_tracker
@@ -55,7 +56,10 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", default="experiments/results/trackability")
     ap.add_argument("--seeds", type=int, nargs="+", default=[700])
+    ap.add_argument("--allow-test-seeds", action="store_true",
+                    help="allow track test seeds (bench/splits.py), which figures are published on; recorded")
     args = ap.parse_args()
+    check_tuning_seeds("track", args.seeds, args.allow_test_seeds)  # tuning looks at dev seeds only
     t0 = time.time()
     rows = []
     jobs = [(s, seed) for s in NATURAL_SOURCES for seed in args.seeds]
@@ -99,7 +103,7 @@ def main() -> int:
         print(f"| {v} | {len(mine)} | {'n/a' if share is None else f'{share:.1%}'} | {whole} |")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    write_atomic(out / "summary.json", json.dumps({"command": " ".join(["python", *sys.argv]), "frames": FRAMES,
+    write_atomic(out / "summary.json", json.dumps({"allow_test_seeds": args.allow_test_seeds, "command": " ".join(["python", *sys.argv]), "frames": FRAMES,
                                                    "seconds": time.time() - t0, "table": table, "rois": rows},
                                                   indent=1))
     print(f"summary: {out / 'summary.json'}")

@@ -27,6 +27,7 @@ import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
+from hvs_sim.bench.splits import check_tuning_seeds
 from hvs_sim.cliargs import near_goal_inset
 from hvs_sim.errors import InputError
 from hvs_sim.outputs import write_atomic
@@ -71,7 +72,10 @@ def main() -> None:
                     help="the loop's near-goal template (as `hvs-sim run --near-goal-inset`; default auto)")
     ap.add_argument("--held-out-seed0", type=int, default=HELD_OUT_SEED0,
                     help=f"the held-out episodes' first seed (default {HELD_OUT_SEED0})")
+    ap.add_argument("--allow-test-seeds", action="store_true",
+                    help="allow servo test seeds (bench/splits.py), which figures are published on; recorded")
     args = ap.parse_args()
+    check_tuning_seeds("servo", range(args.held_out_seed0, args.held_out_seed0 + args.episodes), args.allow_test_seeds)  # tuning looks at dev seeds only
     if args.episodes < 1 or args.workers < 1:
         raise InputError("--episodes and --workers must be at least 1")
     out = Path(args.out)
@@ -101,7 +105,7 @@ def main() -> None:
                      f"{r['held_out_median_mm']:.2f} | {ratio(r['model_ratio'])} | {ratio(r['handful_ratio'])} |")
     text = "\n".join(lines) + "\n"
     write_atomic(out / "validation.md", text)
-    write_atomic(out / "validation.json", json.dumps({"episodes": args.episodes, "standoff_m": STANDOFF,
+    write_atomic(out / "validation.json", json.dumps({"allow_test_seeds": args.allow_test_seeds, "episodes": args.episodes, "standoff_m": STANDOFF,
                                                       "near_goal_inset_px": rows[0]["budget"]["near_goal"],
                                                       "held_out_seed0": args.held_out_seed0, "tolerance": TOLERANCE,
                                                       "wall_s": time.perf_counter() - t0, "rows": rows}, indent=1))

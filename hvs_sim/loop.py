@@ -105,8 +105,7 @@ class LoopConfig:
     # GOAL_ROI_INSET_PX with a goal template (less where the box would fall under MIN_ROI), 0 with a start one.
     # Negative (a goal template only): the box grows that many pixels beyond the outline, into the target's
     # surroundings, which must lie in its plane (the wall's other pictures do; the board behind them sits 4 mm back).
-    # Through `robot_cell` with the 15 cm target, −90 took the 6-DOF loop from 1–11 mm to 0.04–0.65 mm (docs/results.md,
-    # the pose bound): the wider template pins the pose's weak directions
+    # The wider template pins the pose's weak directions (figures: docs/tuning.md, roi_inset_px)
     roi_inset_px: int | None = None
     # a second, grown goal template (a negative inset, as roi_inset_px) the loop switches to once the tracked corners
     # are within near_goal_px of s* and the grown box is in view: the small template brings the camera near from

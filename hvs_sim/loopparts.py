@@ -28,14 +28,12 @@ NEAR_GOAL_PX = 2.0  # LoopConfig.near_goal_px's default: the features this near 
 NEAR_GOAL_AUTO = "auto"
 NEAR_GOAL_OFF = "off"  # its spelling for one template throughout (None), as the command line gives it
 # the share of the goal image the automatic near-goal template covers: the target's outline grown alike on every
-# side until its box holds this much of the image. With the 15 cm target at 0.8 m that is 93 px (the −90 px the
-# pose bound's benchmarks were first run with); a fixed −90 px took the 30 cm target's box to 42 % of the image and
-# its loop ended 1.4 mm off, and a third of the image was worse for the 15 cm target (docs/tuning.md)
+# side until its box holds this much of the image: a share rather than a fixed growth, which left a larger target's
+# box too large (the measurements: docs/tuning.md, NEAR_GOAL_AREA)
 NEAR_GOAL_AREA = 0.25
 NEAR_GOAL_MIN_GROWTH_PX = 8  # a box that can grow less than this adds too little: the loop keeps one template
 # LoopConfig.near_goal_scale's default for a built-in tracker: its features on the near-goal template cost what the
-# template's area does; at 0.25 the robot camera's loop ended closer than at the tracker's own 0.5 (0.49 / 0.42 mm
-# against 0.67 / 0.51 mm on the servo benchmark) with the tracker's median step 29 ms against 43 ms
+# template's area does, and the coarser scale ended no further from the goal (docs/tuning.md, NEAR_GOAL_SCALE)
 NEAR_GOAL_SCALE = 0.25
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import subprocess
 from pathlib import Path
 
@@ -20,7 +21,15 @@ def code_provenance() -> dict:
         if Path(git("rev-parse", "--show-toplevel")).resolve() != here.parent:  # installed inside another repository
             raise OSError("not hvs_sim's own checkout")
         commit = git("rev-parse", "HEAD")
-        dirty = bool(git("status", "--porcelain", "--", str(here)))  # the package's code differs from the commit
+        status = git("status", "--porcelain", "--", str(here))
+        dirty = bool(status)  # the package's code differs from the commit
+        # what differs, as a digest: two reads with the same commit and other uncommitted code are told apart
+        diff = hashlib.sha256((status + git("diff", "HEAD", "--", str(here))).encode()).hexdigest()[:16] if dirty else None
     except (OSError, subprocess.SubprocessError):
-        commit, dirty = "unknown", None
-    return {"hvs_sim_version": __version__, "commit": commit, "code_modified": dirty}
+        commit, dirty, diff = "unknown", None, None
+    return {"hvs_sim_version": __version__, "commit": commit, "code_modified": dirty, "code_diff": diff}
+
+
+def moved(start: dict, end: dict) -> bool:
+    """Whether the code changed between two code_provenance() reads (the commit, or its uncommitted changes)."""
+    return any(start.get(k) != end.get(k) for k in ("commit", "code_modified", "code_diff"))

@@ -83,3 +83,22 @@ def test_servo_results_count_the_episodes_that_switched_to_the_near_goal_templat
     with pytest.raises(ConfigError, match="no method here has one"):  # refused before any episode runs
         ServoBenchConfig(trackers=("ground_truth", "ecc:homography"), near_goal_scale=0.25)
     ServoBenchConfig(trackers=("ground_truth", "hybrid:homography"), near_goal_scale=0.25)
+
+
+# what a record may differ in between two runs of one seed: how long things took
+TIMING_KEYS = {"timing", "episode_seconds", "steps_per_second", "wall"}
+
+
+def test_a_seeds_record_does_not_depend_on_the_worker_count(tmp_path):
+    """One seed gives one episode record whether the benchmark runs on one worker or two (the torch thread count of
+    an episode is fixed, bench/pool.EPISODE_THREADS): bit for bit, every field but the timings."""
+    from hvs_sim.bench.servo import ServoBenchConfig, run_servo_bench
+
+    records = {}
+    for workers in (1, 2):
+        cfg = ServoBenchConfig(trackers=("hybrid:homography",), scenarios=("pause",), seeds=(1000, 1001), steps=25,
+                               width=320, height=240, workers=workers, camera="robot_cell")
+        summary = run_servo_bench(cfg, tmp_path / str(workers), progress=False)
+        records[workers] = [{k: v for k, v in e.items() if k not in TIMING_KEYS} for e in summary["episodes"]]
+    assert [e["episode_seed"] for e in records[1]] == [1000, 1001]
+    assert records[1] == records[2]

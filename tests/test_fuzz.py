@@ -163,16 +163,49 @@ def test_the_stubs_let_valid_commands_through(stubs, capsys):
     assert main(["bench", "servo", "--seeds", "3", "4", "--out", str(stubs / "b")]) == 0
     assert main(["bench", "track", "--imagery", "natural", "--sources", "fur", "--out", str(stubs / "c")]) == 0
     assert main(["run", "--scenario", "pause", "--steps", "3", "--json", str(stubs / "r.json")]) == 0
-    assert main(["bench", "servo", "--suite", "occlusion-4dof-v1", "--methods", "ecc", "--out", str(stubs / "d")]) == 0
+    assert main(["bench", "servo", "--suite", "occlusion-4dof-v2", "--methods", "ecc", "--out", str(stubs / "d")]) == 0
     cfg = SEEN_CONFIGS[-1]
-    assert cfg.suite == "occlusion-4dof-v1" and cfg.tilt_deg == 0 and cfg.trackers == ("ecc",)  # yours alone
-    assert cfg.episode_seeds == list(range(200, 220)) and cfg.camera == "phone_handheld"
+    assert cfg.suite == "occlusion-4dof-v2" and cfg.tilt_deg == 0 and cfg.trackers == ("ecc",)  # yours alone
+    assert cfg.episode_seeds == list(range(1000, 1020)) and cfg.camera == "phone_handheld"  # the test split
+    assert json.loads((stubs / "d" / "summary.json").read_text())["split"] == "test"
+    assert main(["bench", "servo", "--suite", "occlusion-4dof-v1", "--split", "dev", "--out", str(stubs / "g")]) == 0
+    assert SEEN_CONFIGS[-1].episode_seeds == list(range(200, 220))  # a retired suite still runs on its old seeds
     assert main(["bench", "servo", "--suite", "quick", "--methods", "ecc", "--out", str(stubs / "f")]) == 0
     assert SEEN_CONFIGS[-1].trackers == ("ground_truth", "hybrid:homography", "ecc")  # quick: beside the references
-    assert main(["bench", "track", "--suite", "track-occlusion-v1", "--out", str(stubs / "e")]) == 0
+    assert main(["bench", "track", "--suite", "track-occlusion-v2", "--out", str(stubs / "e")]) == 0
     assert SEEN_CONFIGS[-1].methods == ("hybrid", "deep_lk", "ecc") and SEEN_CONFIGS[-1].mounts == ("handheld",)
     assert main(["scene", "--frames", "2", "--out", str(stubs / "s")]) == 0
     assert "NOT a result" in capsys.readouterr().out
+
+
+def test_bench_seeds_come_from_a_split_or_a_fresh_draw(stubs, capsys):
+    """Without seeds a benchmark runs its test split; --split dev the tuning seeds; --fresh N seeds drawn from the
+    system's entropy, recorded as such; seeds named two ways are refused."""
+    def summary(name):
+        return json.loads((stubs / name / "summary.json").read_text())
+
+    assert main(["bench", "servo", "--out", str(stubs / "a")]) == 0
+    assert SEEN_CONFIGS[-1].episode_seeds == list(range(1000, 1020)) and summary("a")["split"] == "test"
+    assert "Seeds" not in capsys.readouterr().err
+    assert main(["bench", "servo", "--split", "dev", "--episodes", "3", "--out", str(stubs / "b")]) == 0
+    assert SEEN_CONFIGS[-1].episode_seeds == [200, 201, 202] and summary("b")["split"] == "dev"
+    assert main(["bench", "track", "--fresh", "2", "--out", str(stubs / "c")]) == 0
+    seeds = SEEN_CONFIGS[-1].seeds
+    assert len(seeds) == 2 and min(seeds) >= 10_000 and summary("c")["seeds_fresh"] is True
+    assert summary("c")["seeds"] == list(seeds) and summary("c")["split"] == "fresh"
+    assert main(["bench", "track", "--fresh", "2", "--out", str(stubs / "d")]) == 0
+    assert SEEN_CONFIGS[-1].seeds != seeds  # drawn anew
+    assert main(["bench", "track", "--imagery", "natural", "--out", str(stubs / "e")]) == 0
+    assert SEEN_CONFIGS[-1].seeds == (3000, 3001)
+    assert main(["bench", "track", "--seeds", "101", "--out", str(stubs / "f")]) == 0
+    assert summary("f")["split"] == "dev" and summary("f")["seeds_fresh"] is False
+    capsys.readouterr()
+    for argv, msg in ((["--seeds", "5", "--fresh", "2"], "both choose the seeds"),
+                      (["--split", "dev", "--fresh", "2"], "both choose the seeds"),
+                      (["--fresh", "0"], "--fresh takes a number of seeds from 1"),
+                      (["--fresh", "3", "--episodes", "4"], "leave --episodes out")):
+        assert main(["bench", "servo", *argv, "--out", str(stubs / "x")]) == 2
+        assert msg in capsys.readouterr().err
 
 
 # ------------------------------------------------------------------------------------------ CLI, from the parsers

@@ -7,6 +7,7 @@ import pytest
 
 from hvs_sim.bench.compare import compare
 from hvs_sim.bench.servo import episode_offset, parse_method, portable_method
+from hvs_sim.bench.splits import split_of
 from hvs_sim.bench.stats import episode_success, mcnemar, median_ci, rate, wilcoxon, wilson
 from hvs_sim.bench.suites import SUITES, describe, get_suite
 from hvs_sim.cli import main
@@ -96,12 +97,21 @@ def test_four_dof_starts_draw_no_tilt_and_six_dof_draws_are_unchanged():
 
 
 def test_suites_are_listed_and_frozen(capsys):
-    assert {"quick", "occlusion-v1", "occlusion-4dof-v1", "track-occlusion-v1"} <= set(SUITES)
-    assert get_suite("occlusion-v1", "servo").seeds == tuple(range(200, 220))
-    with pytest.raises(ConfigError, match="accepted: quick, occlusion-v1"):
+    assert {"quick", "occlusion-v1", "occlusion-4dof-v1", "track-occlusion-v1", "occlusion-v2", "occlusion-4dof-v2",
+            "track-occlusion-v2"} <= set(SUITES)
+    assert get_suite("occlusion-v1", "servo").seeds("dev") == tuple(range(200, 220))
+    with pytest.raises(ConfigError, match="retired.*--split dev.*occlusion-v2"):
+        get_suite("occlusion-v1", "servo").seeds("test")
+    for suite in SUITES.values():  # dev and test disjoint; the test seeds lie in the benchmark's test split
+        assert not set(suite.dev_seeds) & set(suite.test_seeds)
+        assert set(suite.test_seeds) <= set(split_of(suite.kind).test)
+        assert set(suite.dev_seeds) <= set(split_of(suite.kind).dev)
+    with pytest.raises(ConfigError, match="accepted: quick, occlusion-v2"):
         get_suite("occlusion-v9", "servo")
     assert main(["bench", "suites"]) == 0
-    assert "occlusion-4dof-v1 (servo)" in capsys.readouterr().out and "quick" in describe()
+    out = capsys.readouterr().out
+    assert "occlusion-4dof-v1 (servo)" in out and "quick" in describe()
+    assert "seeds: test 1000–1019 (20), dev 200–219 (20)" in out and "none (retired)" in out
     assert main(["bench", "servo", "--suite", "quick", "--seeds", "3"]) == 2
     assert "changes what suite quick fixes" in capsys.readouterr().err
 

@@ -14,14 +14,13 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from hvs_sim.bench.pool import collect_jobs, config_json
+from hvs_sim.bench.pool import collect_jobs, config_json, episode_threads
 from hvs_sim.bench.suites import TILT_MAX_DEG
 from hvs_sim.camera_model import BLUR_MODES, REALISTIC_PRESET
 from hvs_sim.errors import ConfigError, choice_error
@@ -271,8 +270,6 @@ def episode_start(scen_name: str, seed: int, tilt: float = TILT_MAX, **overrides
 
 
 def _episode(args):
-    import torch
-
     from hvs_sim import plugins
     from hvs_sim.control.ibvs import IBVSConfig
     from hvs_sim.runner import run_episode
@@ -280,7 +277,7 @@ def _episode(args):
 
     (scen_name, method, seed, steps, extra, keep, camera, people, damping, template_from, inset, goal_frames, alpha,
      size, tilt, run_as, arm, near_goal, near_goal_scale) = args
-    torch.set_num_threads(1 if os.environ.get("HVS_WORKERS", "1") != "1" else 2)
+    episode_threads()
     started = time.perf_counter()
     tracker, warp, controller, policy = parse_method(run_as)
     scen, draws = episode_start(scen_name, seed, tilt, camera=CameraConfig(sensor=camera, width=size[0], height=size[1]),
@@ -385,7 +382,6 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True) 
              (config.width, config.height), np.radians(config.tilt_deg), run_as[t], config.arm,
              config.near_goal_inset_px, config.near_goal_scale)
             for s in config.scenarios for t in config.trackers for seed in seeds]
-    os.environ["HVS_WORKERS"] = str(config.workers)
     episodes, traces = {}, {}
     wall = time.perf_counter()
     for key, summ, trace in collect_jobs(_episode, jobs, config, out, "bench servo", "episode", progress):

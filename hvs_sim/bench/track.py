@@ -9,13 +9,12 @@ table.md.
 from __future__ import annotations
 
 import json
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from hvs_sim.bench.pool import collect_jobs, config_json, write_frames_csv
+from hvs_sim.bench.pool import collect_jobs, config_json, episode_threads, write_frames_csv
 from hvs_sim.bench.sequences import Sequence, make_sequence
 from hvs_sim.camera_model import REALISTIC_PRESET
 from hvs_sim.errors import ConfigError, choice_error
@@ -127,12 +126,10 @@ class TrackBenchConfig:
 
 
 def _job(args):
-    import torch
-
     from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 
     scen, mount, seed, frames, methods, camera, people = args
-    torch.set_num_threads(1 if os.environ.get("HVS_WORKERS", "1") != "1" else 2)
+    episode_threads()
     scenario = make_scenario(scen, mount=mount, seed=seed, camera=CameraConfig(sensor=camera), people=people)
     seq = make_sequence(scenario, n_frames=frames)
     return (scen, mount, seed), {m: run_tracker(m, seq) for m in methods}
@@ -146,7 +143,6 @@ def run_track_bench(config: TrackBenchConfig, out: Path, progress: bool = True) 
     # workers resolve each tracker again: a name registered in this process travels as its module:callable
     run_as = tuple(portable("tracker", m) if config.workers > 1 else m for m in config.methods)
     jobs = [(s, m, seed, config.frames, run_as, config.camera, config.people) for s in config.scenarios for m in config.mounts for seed in config.seeds]
-    os.environ["HVS_WORKERS"] = str(config.workers)
     results = {k: dict(zip(config.methods, per.values(), strict=True))
                for k, per in collect_jobs(_job, jobs, config, out, "bench track", "seq", progress)}
     summary = {"config": config_json(config),

@@ -46,6 +46,7 @@ from hvs_sim.cli.misc import (
     cmd_demo,
     cmd_train,
 )
+from hvs_sim.cli.results import add_results_parser
 from hvs_sim.cli.run import _check_viewer, add_run_parser, cmd_run, parse_start_offset
 from hvs_sim.cli.scene import SCENE_OUTPUTS, add_scene_parser, add_scenes_parser, cmd_scene, cmd_scenes
 from hvs_sim.cli.sweep import add_sweep_parser, cmd_sweep
@@ -76,6 +77,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_dataset_parser(sub)
     add_scenes_parser(sub)
     add_demo_parser(sub)
+    add_results_parser(sub)
 
     from hvs_sim.video import add_track_parser  # here, not at the top: it loads OpenCV and the trackers
     add_track_parser(sub)

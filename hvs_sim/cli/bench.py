@@ -7,7 +7,7 @@ import dataclasses
 import json
 from pathlib import Path
 
-from hvs_sim.cli.common import HelpFormatter, _given, _provenance, add_blur_argument, camera_model
+from hvs_sim.cli.common import HelpFormatter, _given, _provenance, add_blur_argument, camera_model, finish_provenance
 from hvs_sim.cliargs import near_goal_inset
 from hvs_sim.errors import ConfigError
 from hvs_sim.outputs import fresh_out_dir, write_atomic
@@ -98,17 +98,68 @@ def cmd_bench(args) -> int:
 
         args.camera = REALISTIC_PRESET
     _check_bench_options(args)
+    origin = _resolve_seeds(args)
     fresh_out_dir(args.out, args.overwrite, BENCH_OUTPUTS)
+    started = _provenance(args.argv)  # the code at the start: a run may take hours, and the tree may move meanwhile
     if args.what == "track" and args.imagery == "natural":
         status = cmd_bench_natural(args)
     else:
         status = _cmd_bench_sim(args)
     path = Path(args.out) / "summary.json"
     data = json.loads(path.read_text())
-    data["provenance"] = _provenance(args.argv)
+    data["provenance"] = finish_provenance(started)
+    if origin is not None:
+        data.update(split=origin, seeds_fresh=origin == "fresh", seeds=list(args.seeds))
+        _note_seeds(Path(args.out) / "table.md", origin, args.seeds)
     write_atomic(path, json.dumps(data, indent=2))
     print(f"results: {args.out}/ (summary.json, table.md, figures)")
     return status
+
+
+def _bench_kind(args) -> str:
+    return "natural" if args.what == "track" and args.imagery == "natural" else args.what
+
+
+def _resolve_seeds(args) -> str | None:
+    """Set args.seeds from --seeds, --fresh N or --split (default test) and say which they are (bench/splits.py);
+    None for a smoke run that names no seeds (its own, not a result)."""
+    from hvs_sim.bench.splits import DEFAULT_COUNT, DEFAULT_SPLIT, fresh_seeds, seed_origin, split_of
+
+    kind = _bench_kind(args)
+    given = [flag for flag, v in (("--seeds", args.seeds and not args.suite), ("--fresh", args.fresh is not None),
+                                  ("--split", args.split)) if v]
+    if len(given) > 1:
+        raise ConfigError(f"{given[0]} and {given[1]} both choose the seeds: give one")
+    if args.fresh is not None and args.episodes is not None:
+        raise ConfigError(f"--fresh {args.fresh} is the number of episodes drawn: leave --episodes out")
+    suite = getattr(args, "suite_obj", None)
+    if args.fresh is not None:
+        args.seeds = list(fresh_seeds(args.fresh))
+        print(f"fresh seeds from the system's entropy: {' '.join(map(str, args.seeds))}")
+        return "fresh"
+    if suite is not None:
+        args.seeds = list(suite.seeds(args.split or DEFAULT_SPLIT))
+        return args.split or DEFAULT_SPLIT
+    if args.seeds:
+        return seed_origin(kind, args.seeds)
+    if args.smoke and not args.split:
+        return None
+    n = args.episodes if args.episodes is not None and kind == "servo" else DEFAULT_COUNT[kind]
+    args.seeds = list(split_of(kind).seeds(args.split or DEFAULT_SPLIT, n))
+    args.episodes = None  # the seeds say it now
+    return args.split or DEFAULT_SPLIT
+
+
+def _note_seeds(table: Path, origin: str, seeds) -> None:
+    """The seeds' origin under the table's title, so a table read alone says whether its seeds were tuned on."""
+    if not table.is_file():
+        return
+    what = {"test": "the test split (nothing was tuned on them)", "dev": "the dev split (tuning may have used them)",
+            "fresh": "drawn fresh from the system's entropy for this run", "custom": "named by hand (neither split)"}
+    lines = table.read_text().split("\n")
+    shown = ", ".join(map(str, seeds[:6])) + (", …" if len(seeds) > 6 else "")
+    lines[1:1] = ["", f"Seeds ({len(seeds)}): {what[origin]}: {shown}."]
+    write_atomic(table, "\n".join(lines))
 
 
 def _apply_suite(args) -> None:
@@ -128,7 +179,7 @@ def _apply_suite(args) -> None:
                               "people and steps): leave it out, or run without --suite")
     named = list(args.methods or [])
     args.methods = list(dict.fromkeys([*suite.methods, *named] if suite.with_reference or not named else named))
-    args.scenarios, args.seeds, args.camera = list(suite.scenarios), list(suite.seeds), suite.camera
+    args.scenarios, args.camera = list(suite.scenarios), suite.camera
     args.suite_obj = suite
     if suite.kind == "track":
         args.mounts = list(suite.mounts)
@@ -204,7 +255,7 @@ def _cmd_bench_sim(args) -> int:
 
             given.update(extra_steps=suite.extra_steps, width=suite.width, height=suite.height,
                          tilt_deg=0.0 if suite.start == "4dof" else TILT_MAX_DEG, success_px=suite.success_px,
-                         suite=suite.name, scenarios=suite.scenarios, seeds=suite.seeds)
+                         suite=suite.name, scenarios=suite.scenarios, seeds=tuple(args.seeds))
         cfg = ServoBenchConfig(workers=args.workers, camera=camera_model(args.camera, args.blur), people=args.people,
                                steps=30 if args.smoke else None, **given)
         summary = run_servo_bench(cfg, Path(args.out))
@@ -298,9 +349,18 @@ def add_bench_parser(sub) -> None:
     p.add_argument("--mounts", nargs="+", default=None, metavar="MOUNT",
                    help="track only, sim imagery: handheld and/or arm (default both)")
     p.add_argument("--seeds", nargs="+", type=int, default=None,
-                   help="sequence seeds (track; default 100 101 102, natural 500 501) or episode seeds (servo)")
+                   help="sequence seeds (track) or episode seeds (servo), by hand (default: the test split's first "
+                        "3 for track, 2 for natural imagery, 20 for servo)")
     p.add_argument("--episodes", type=int, default=None,
-                   help="servo only: episodes per scenario and tracker, seeds 200, 201, … (default 20)")
+                   help="servo only: episodes per scenario and tracker, the first of the split's seeds (default 20)")
+    from hvs_sim.bench.splits import BENCH_SPLITS, SPLIT_NAMES
+
+    p.add_argument("--split", default=None, choices=SPLIT_NAMES,
+                   help="which seeds: test (the default; published figures) or dev (what tuning may look at); "
+                        + "; ".join(f"{k} {v.describe()}" for k, v in BENCH_SPLITS.items()))
+    p.add_argument("--fresh", type=int, default=None, metavar="N",
+                   help="N seeds drawn now from the system's entropy (episodes per scenario for servo; recorded in "
+                        "summary.json as seeds_fresh)")
     add_blur_argument(p)
     p.add_argument("--camera", default=None, choices=SENSOR_NAMES,
                    help=f"camera model of every sequence/episode (default {REALISTIC_PRESET}; ideal = clean renders)")

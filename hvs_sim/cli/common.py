@@ -113,6 +113,16 @@ def _provenance(argv: list[str]) -> dict:
     return {"command": "hvs-sim " + " ".join(argv), **code_provenance()}
 
 
+def finish_provenance(started: dict) -> dict:
+    """`started` (_provenance at a run's start) with the code at its end: `moved` when the commit or the package's
+    uncommitted changes differ, so a run whose tree moved under it is never cited as one commit's result."""
+    from hvs_sim.provenance import code_provenance, moved
+
+    end = code_provenance()
+    return {**started, "commit_end": end["commit"], "code_modified_end": end["code_modified"],
+            "moved": moved(started, end)}
+
+
 def _given(args, *names) -> dict:
     """The bench options the user gave, as config fields (tuples)."""
     return {field: tuple(getattr(args, opt)) for opt, field in names if getattr(args, opt)}

@@ -31,11 +31,9 @@ IC_ITERATIONS = 15  # Gauss–Newton steps at most
 IC_EPS_PX = 1e-3  # stop when a step moves the template's corners by less than this (full-resolution px)
 IC_MAX_STEP_PX = 8.0  # a step that moves a corner further than this has diverged: no answer
 # "template": the frame resampled bicubically and smoothed on the template's grid: the more accurate on warped
-# photos (module docstring). "frame": smoothed in the frame's pixels, then resampled bilinearly, as ECC does. In the
-# closed 6-DOF servo loop through `phone_handheld` (tuning episodes 306–319, clear / walk_by / pause, median final
-# pose error) "template" ended further from the goal, 10.7 / 13.5 / 14.6 mm against ECC's 6.9 / 7.2 / 9.7 mm, which
-# is not understood (its bias at the goal pose itself was lower); "frame" ended at 6.6 / 7.1 / 8.3 mm. The hybrid
-# uses "frame", deep_lk "template" (README, homography).
+# photos (module docstring). "frame": smoothed in the frame's pixels, then resampled bilinearly, as ECC does; in the
+# closed 6-DOF loop "template" ended further from the goal, which is not understood (docs/tuning.md,
+# intensity_smooth). The hybrid uses "frame", deep_lk "template".
 SMOOTH_MODES = ("template", "frame")
 FRAME_MARGIN = 16  # px around the template's place in the frame smoothed for a call (smooth="frame")
 MIN_PIXELS = 64  # fewer usable pixels than this: no answer
