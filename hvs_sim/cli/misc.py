@@ -7,7 +7,7 @@ import json
 import sys
 from pathlib import Path
 
-from hvs_sim.cli.common import HelpFormatter, _target_overrides
+from hvs_sim.cli.common import HelpFormatter, _target_overrides, stop_reason
 from hvs_sim.cli.run import cmd_run
 from hvs_sim.cliargs import DEFAULT_TRACKER, near_goal_inset
 from hvs_sim.errors import ConfigError
@@ -104,7 +104,7 @@ def cmd_dataset(args) -> int:
         if not exc.args:
             raise
         summary, code = exc.args[0], 130
-        print(f"hvs-sim: interrupted: the {summary['episodes']} finished episodes were written", file=sys.stderr)
+        print(f"hvs-sim: {stop_reason()}: the {summary['episodes']} finished episodes were written", file=sys.stderr)
     print(f"{summary['episodes']} episodes, {summary['steps']} steps, expert success {summary['success_rate']:.0%}; "
           f"start poses drawn again {sum(summary['start_draws']) - summary['episodes']} times (out of reach or view)")
     print(f"dataset: {summary['path']}\nread it: MINARI_DATASETS_PATH={args.out} python -c \"import minari; "
