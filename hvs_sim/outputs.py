@@ -415,7 +415,7 @@ def write_with(path, write, need_bytes: int = 0) -> Path:
     path = Path(path)
     tmp = temporary_beside(path)
     try:
-        ensure_space(tmp, need_bytes)
+        ensure_space(tmp, need_bytes, native=False)  # these writers are Python's: a full disk is their OSError
         ok = write(tmp)
         if ok is False or not tmp.exists():
             raise OSError(errno.EIO, "the writer could not write it (disk full or folder not writable?)", str(path))
@@ -477,6 +477,13 @@ class _CountedFile:
                 raise
             raise output_error(self._path, exc) from None
 
+    def close(self) -> None:
+        """Close; the last buffered bytes meeting a full disk are an OutputError too."""
+        try:
+            self._f.close()
+        except OSError as exc:
+            raise output_error(self._path, exc) from None
+
     def __getattr__(self, name):
         return getattr(self._f, name)
 
@@ -484,7 +491,7 @@ class _CountedFile:
         return self
 
     def __exit__(self, *exc):
-        self._f.close()
+        self.close()
         return False
 
 
