@@ -5,6 +5,9 @@ ms beside the ECC baseline's on the same frames, all in one process.
 
     python experiments/bench_loop.py --out experiments/results/loop_speed
 
+`--camera-pairs 2 --configs` (no configuration named) runs only the demo's loop through `ideal` and `phone_handheld`
+in turn, twice, and writes their steps/s ratio pair by pair to speed.json.
+
 Writes speed.json and speed.md there (docs/results.md's loop-speed figures come from them). Run it on a quiet
 machine: the steps/s are absolute figures of this machine; the ratios are what carries across machines.
 
@@ -21,6 +24,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import os
 import platform
 import sys
 import tempfile
@@ -34,20 +38,20 @@ from hvs_sim.bench.sequences import make_sequence
 from hvs_sim.bench.track import run_tracker
 from hvs_sim.loop import LoopConfig
 from hvs_sim.runner import run_episode
-from hvs_sim.scene.scenarios import make_scenario
+from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 from hvs_sim.tracking import make_tracker
 from hvs_sim.tracking.base import Tracker
 
 sys.path.insert(0, str(Path(__file__).parent))
-from bench_render import time_preset
+from bench_render import time_presets
 
 STAGES = ("render", "ground_truth", "track", "control", "physics", "log", "other")
 PRESET_FRAMES = 100  # walk_by hand-held frames per camera preset (the person crosses from frame ~60)
 
 
 def loop_run(name: str, steps: int, evaluate: bool, rrd: bool, multisample: int | None, pipeline: bool, tmp: Path,
-             keep: bool = False) -> dict:
-    base = make_scenario("walk_by", mount="arm", seed=0)
+             keep: bool = False, camera: str = "ideal") -> dict:
+    base = make_scenario("walk_by", mount="arm", seed=0, camera=CameraConfig(sensor=camera))
     scen = base if multisample is None else dataclasses.replace(
         base, camera=dataclasses.replace(base.camera, multisample=multisample))
     cfg = LoopConfig(steps=steps, evaluate=evaluate, keep_frames=rrd, pipeline=pipeline)
@@ -119,14 +123,35 @@ def tracker_in_loop(steps: int, tmp: Path) -> dict:
 
 
 def preset_costs(frames: int) -> dict:
-    """Mean ms of an RGB frame through each camera preset (bench_render's timing), and its ratio to `ideal`'s."""
+    """Mean ms of an RGB frame through each camera preset (bench_render's interleaved timing), its ratio to `ideal`'s."""
     from hvs_sim.camera_model import SENSOR_NAMES
 
-    out = {name: time_preset(name, frames)[0] for name in SENSOR_NAMES}
-    for p in out.values():
-        p["ratio_to_ideal"] = p["rgb_ms_mean"] / out["ideal"]["rgb_ms_mean"]
+    out, _ = time_presets({name: (name, None) for name in SENSOR_NAMES}, frames)
     out["realistic_mean_ratio_to_ideal"] = float(np.mean([p["ratio_to_ideal"] for n, p in out.items()
                                                           if n != "ideal"]))
+    return out
+
+
+def camera_loops(pairs: int, steps: int, config: tuple, cameras: tuple[str, ...], tmp: Path) -> dict:
+    """The demo's loop (walk_by on the arm, seed 0, the hybrid) through each camera of `cameras`, run in turn `pairs`
+    times (A B A B …, so that the machine's drift falls on both), with each camera's steps/s over the first's, run by
+    run; `config`: (evaluate, rrd, multisample, pipeline) as in main's table."""
+    runs = {c: [] for c in cameras}
+    for k in range(pairs):
+        for camera in cameras:
+            runs[camera].append(loop_run(f"{camera}_{k}", steps, *config, tmp, camera=camera))
+            r = runs[camera][-1]
+            print(f"loop through {camera:16s} run {k}: {r['steps_per_second']:.1f} steps/s as run, "
+                  f"{r['steps_per_second_after_first']:.1f} after step 0, render {r['mean_ms'].get('render', 0):.1f} ms"
+                  f" | converged {r['converged']} {r['final_error_px']:.2f} px", flush=True)
+    out = {"pairs": pairs, "config": dict(zip(("evaluate", "rrd", "multisample", "pipeline"), config)), "runs": runs}
+    base = runs[cameras[0]]
+    for camera in cameras[1:]:
+        ratios = [b["steps_per_second_after_first"] / a["steps_per_second_after_first"]
+                  for a, b in zip(base, runs[camera])]
+        out[f"{camera}_over_{cameras[0]}_steps_per_second"] = ratios
+        print(f"{camera} loop / {cameras[0]} loop, steps/s after step 0, pair by pair: "
+              + ", ".join(f"{x:.2f}" for x in ratios), flush=True)
     return out
 
 
@@ -176,7 +201,12 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=240)
     ap.add_argument("--tracker-frames", type=int, default=150)
     ap.add_argument("--preset-frames", type=int, default=PRESET_FRAMES, help="0: no per-preset render costs")
-    ap.add_argument("--configs", nargs="+", default=["as_run", "no_rrd", "no_eval", "pipelined"])
+    ap.add_argument("--configs", nargs="*", default=["as_run", "no_rrd", "no_eval", "pipelined"])
+    ap.add_argument("--camera-pairs", type=int, default=0,
+                    help="also run the loop through each of --cameras in turn this many times (0: not)")
+    ap.add_argument("--cameras", nargs="+", default=["ideal", "phone_handheld"],
+                    help="the cameras of --camera-pairs, the reference first")
+    ap.add_argument("--camera-config", default="no_rrd", help="the configuration of --camera-pairs' loops")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -186,7 +216,9 @@ def main() -> None:
                "no_eval": (False, False, None, False), "pipelined": (True, True, None, True),
                "pipelined_no_eval": (False, False, None, True), "as_run_ms4": (True, True, 4, False),
                "no_eval_ms4": (False, False, 4, False)}
-    res = {"machine": platform.machine(), "torch_threads": torch.get_num_threads(), "steps": args.steps,
+    # the machine's load beside its timings: other processes on the 2 cores slow every figure here
+    res = {"machine": platform.machine(), "load_average_start": os.getloadavg()[0],
+           "torch_threads": torch.get_num_threads(), "steps": args.steps,
            "tracker_frames": args.tracker_frames, "loop": {}}
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.configs:
@@ -195,6 +227,14 @@ def main() -> None:
             print(f"{name:12s} " + " ".join(f"{k} {v:.1f}" for k, v in r["mean_ms"].items())
                   + f" ms (mean) | {r['steps_per_second']:.1f} steps/s as run, {r['steps_per_second_after_first']:.1f} "
                   f"after step 0 | converged {r['converged']} {r['final_error_px']:.2f} px", flush=True)
+        if args.camera_pairs:
+            res["cameras"] = camera_loops(args.camera_pairs, args.steps, configs[args.camera_config],
+                                          tuple(args.cameras), Path(tmp))
+        if not args.configs:
+            res["load_average_end"] = os.getloadavg()[0]
+            (out / "speed.json").write_text(json.dumps(res, indent=2))
+            print(f"written: {out}/speed.json")
+            return
         res["tracker_in_loop"] = t = tracker_in_loop(args.steps, Path(tmp))
         print(f"hybrid in the loop {t['in_loop_median_ms']:.1f} ms, alone on the same frames {t['isolated_median_ms']:.1f}"
               f" ms: {t['in_loop_over_isolated']:.2f}x", flush=True)
@@ -206,6 +246,7 @@ def main() -> None:
     res["trackers"] = tracker_timing(args.tracker_frames)
     t = res["trackers"]
     print(f"hybrid {t['hybrid']['median_ms']:.1f} ms, ecc {t['ecc']['median_ms']:.2f} ms: {t['hybrid_over_ecc']:.1f}×")
+    res["load_average_end"] = os.getloadavg()[0]
     (out / "speed.json").write_text(json.dumps(res, indent=2))
     (out / "speed.md").write_text(markdown(res))
     print(f"written: {out}/speed.json, speed.md")

@@ -5,13 +5,16 @@ per camera preset, and a figure of one frame through each preset.
         --figure experiments/results/figures/camera_presets.png
 
 `--supersample 2 3` also times the presets with each pixel the mean of k×k samples (CameraConfig.supersample), as
-ratios to the same preset without; `--figure ''` writes no figure.
+ratios to the same preset without; `--figure ''` writes no figure. The presets (and their blur ways) are timed
+interleaved, frame by frame in one process, so each one's whole frame over `ideal`'s (`ratio_to_ideal`) holds on a
+busy machine; the JSON keeps the load average at the start and the end.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import time
 from pathlib import Path
@@ -27,32 +30,60 @@ FIGURE_FRAMES = (40, 78)  # walk_by hand-held seed 0: the camera drifting, and t
 CROP = (slice(150, 330), slice(300, 540))  # a zoom on the target and the person's edge
 
 
+def time_presets(specs: dict[str, tuple[str, str | None]], frames: int,
+                 supersample: int = 1) -> tuple[dict[str, dict], dict[str, dict[int, np.ndarray]]]:
+    """Median / p95 / mean ms of the RGB frame through each camera of `specs` (name: (preset, blur), blur None for
+    the preset's own; SensorModel.blur) over the first `frames` frames of walk_by, hand-held, seed 0, all timed
+    INTERLEAVED: frame k of every camera in turn (the order rotated each frame), so that a busy or drifting machine
+    slows them alike and their ratios hold in one run. With an `ideal` among them, each row has its whole frame's
+    ratio to ideal's: of the means, and the median of the frame-by-frame ratios."""
+    renderers, rows = {}, {}
+    for name, (preset, blur) in specs.items():
+        sensor = sensor_preset(preset) if blur is None else sensor_preset(preset, blur=blur)
+        scene = Scene(make_scenario("walk_by", mount="handheld",
+                                    camera=CameraConfig(sensor=sensor, supersample=supersample)))
+        renderers[name] = Renderer(scene)
+        rows[name] = {"ms": [], "stages": [], "samples": [], "taps": [], "kept": {}, "blur": sensor.blur}
+    names = list(specs)
+    for k in range(max(frames, max(FIGURE_FRAMES) + 1)):
+        for name in names[k % len(names):] + names[:k % len(names)]:
+            r, row = renderers[name], rows[name]
+            t = time.perf_counter()
+            frame = r.rgb()
+            if k:  # frame 0 creates the GL context
+                row["ms"].append(1e3 * (time.perf_counter() - t))
+                row["stages"].append((r.stage_ms["light"], r.stage_ms["sensor"]))
+            row["samples"].append(r.blur_samples)
+            row["taps"].append(r.blur_taps)
+            if k in FIGURE_FRAMES:
+                row["kept"][k] = frame
+            r.scene.advance()
+    out, kept = {}, {}
+    for name, row in rows.items():
+        ms = np.asarray(row["ms"])
+        light, electronics = np.mean(row["stages"], axis=0)
+        samples, taps = np.asarray(row["samples"]), np.asarray(row["taps"])
+        out[name] = {"rgb_ms_median": float(np.median(ms)), "rgb_ms_mean": float(ms.mean()),
+                     "rgb_ms_p95": float(np.percentile(ms, 95)), "mean_blur_samples": float(samples.mean()),
+                     # Renderer.stage_ms: the renders and what is done to the light, and the sensor's electronics
+                     "light_ms_mean": float(light), "sensor_ms_mean": float(electronics), "blur": row["blur"],
+                     "blurred_frames": int(np.count_nonzero(taps > 1) + np.count_nonzero(samples > 1))}
+        kept[name] = row["kept"]
+    if "ideal" in rows:
+        ideal = np.asarray(rows["ideal"]["ms"])
+        for name, p in out.items():
+            p["ratio_to_ideal"] = p["rgb_ms_mean"] / float(ideal.mean())
+            p["median_framewise_ratio_to_ideal"] = float(np.median(np.asarray(rows[name]["ms"]) / ideal))
+            p["light_ratio_to_ideal"] = p["light_ms_mean"] / float(ideal.mean())
+            p["sensor_ratio_to_ideal"] = p["sensor_ms_mean"] / float(ideal.mean())
+    return out, kept
+
+
 def time_preset(preset: str, frames: int, blur: str | None = None,
                 supersample: int = 1) -> tuple[dict, dict[int, np.ndarray]]:
-    """Median / p95 ms of the RGB frame through a camera preset over the first `frames` frames of walk_by (blur: the
-    preset's motion blur made another way, SensorModel.blur; supersample: CameraConfig.supersample)."""
-    sensor = sensor_preset(preset) if blur is None else sensor_preset(preset, blur=blur)
-    scene = Scene(make_scenario("walk_by", mount="handheld", camera=CameraConfig(sensor=sensor, supersample=supersample)))
-    r = Renderer(scene)
-    ms, samples, taps, kept, stages = [], [], [], {}, []
-    for k in range(max(frames, max(FIGURE_FRAMES) + 1)):
-        t = time.perf_counter()
-        frame = r.rgb()
-        if k:  # frame 0 creates the GL context
-            ms.append(1e3 * (time.perf_counter() - t))
-            stages.append((r.stage_ms["light"], r.stage_ms["sensor"]))
-        samples.append(r.blur_samples)
-        taps.append(r.blur_taps)
-        if k in FIGURE_FRAMES:
-            kept[k] = frame
-        scene.advance()
-    light, electronics = np.mean(stages, axis=0)
-    return {"rgb_ms_median": float(np.median(ms)), "rgb_ms_mean": float(np.mean(ms)),
-            "rgb_ms_p95": float(np.percentile(ms, 95)), "mean_blur_samples": float(np.mean(samples)),
-            # Renderer.stage_ms: the renders and what is done to the light, and the sensor's electronics
-            "light_ms_mean": float(light), "sensor_ms_mean": float(electronics),
-            "blur": sensor.blur, "blurred_frames": int(np.count_nonzero(np.asarray(taps) > 1) + np.count_nonzero(
-                np.asarray(samples) > 1))}, kept
+    """`time_presets` of one camera alone."""
+    rows, kept = time_presets({preset: (preset, blur)}, frames, supersample)
+    return rows[preset], kept[preset]
 
 
 def preset_figure(frames: dict[str, dict[int, np.ndarray]], path: Path) -> None:
@@ -89,14 +120,15 @@ def main() -> None:
     ap.add_argument("--supersample", type=int, nargs="*", default=[], choices=[k for k in SUPERSAMPLE_CHOICES if k > 1],
                     help="also time the presets supersampled k×k (their first blur way)")
     args = ap.parse_args()
-    out = {"machine": platform.processor() or platform.machine(), "frames": args.frames, "camera_presets": {}}
-    kept = {}
+    out = {"machine": platform.processor() or platform.machine(), "frames": args.frames, "interleaved": True,
+           "load_average_at_start": list(os.getloadavg()), "camera_presets": {}}
+    specs = {}
     for preset in args.presets:
         for k, blur in enumerate(args.blur if preset != "ideal" else args.blur[:1]):
-            name = preset if k == 0 else f"{preset}:{blur}"
-            out["camera_presets"][name], got = time_preset(preset, args.frames, blur)
-            if k == 0:
-                kept[preset] = got
+            specs[preset if k == 0 else f"{preset}:{blur}"] = (preset, blur)
+    out["camera_presets"], got = time_presets(specs, args.frames)
+    kept = {preset: got[preset] for preset in args.presets}
+    out["load_average_at_end"] = list(os.getloadavg())
     realistic = [p for n, p in out["camera_presets"].items() if n != "ideal" and ":" not in n]
     if realistic and "ideal" in out["camera_presets"]:
         ideal_ms = out["camera_presets"]["ideal"]["rgb_ms_mean"]
@@ -105,9 +137,8 @@ def main() -> None:
         out["realistic_mean_light_ratio_to_ideal"] = float(np.mean([p["light_ms_mean"] for p in realistic]) / ideal_ms)
         out["realistic_mean_sensor_ratio_to_ideal"] = float(np.mean([p["sensor_ms_mean"] for p in realistic]) / ideal_ms)
     for preset, p in out["camera_presets"].items():
-        if "ideal" in out["camera_presets"]:  # the reference measured in the same run
-            p["ratio_to_ideal"] = p["rgb_ms_mean"] / out["camera_presets"]["ideal"]["rgb_ms_mean"]
-        ratio = f" ({p['ratio_to_ideal']:.2f}x ideal)" if "ratio_to_ideal" in p else ""
+        ratio = (f" ({p['ratio_to_ideal']:.2f}x ideal, frame by frame {p['median_framewise_ratio_to_ideal']:.2f}x)"
+                 if "ratio_to_ideal" in p else "")
         print(f"camera {preset:26s} rgb median {p['rgb_ms_median']:.1f} ms, mean {p['rgb_ms_mean']:.1f} ms{ratio}, "
               f"p95 {p['rgb_ms_p95']:.1f} ms, {p['mean_blur_samples']:.2f} renders/frame, "
               f"{p['blurred_frames']} blurred frames; light {p['light_ms_mean']:.1f} ms + sensor "

@@ -180,6 +180,10 @@ def test_compare_refuses_results_from_before_the_schema(tmp_path):
     (old / "summary.json").write_text("[1, 2]")
     with pytest.raises(ConfigError, match="schema"):
         compare(old, new)
+    # an interrupted run's summary (bench/pool.collect_jobs) is named as such, not as an old schema
+    (old / "summary.json").write_text(json.dumps({"interrupted": True, "completed_jobs": 23, "total_jobs": 60}))
+    with pytest.raises(ConfigError, match="interrupted run's partial summary \\(23 of 60 episodes"):
+        compare(new, old)
 
 
 def test_dvs_refuses_a_goal_without_texture():

@@ -145,3 +145,24 @@ def test_a_moved_summary_may_not_be_cited(published):
     readme = published / "README.md"
     readme.write_text(readme.read_text() + "\nSee `experiments/results/old_run/`.\n")
     assert "old_run is cited but its provenance moved" in headlines.check(published).text()
+
+
+def test_no_committed_summary_names_two_commits_unmarked():
+    """A summary's top-level commit (read at its start) and its provenance agree; one that does not ran while the code
+    moved (before provenance recorded both ends) and INDEX.md says so, so that nobody cites it as one commit's."""
+    index = (ROOT / "experiments/results/INDEX.md").read_text()
+    checked = 0
+    for path in sorted((ROOT / "experiments/results").rglob("summary.json")):
+        data = json.loads(path.read_text())
+        prov = data.get("provenance") if isinstance(data, dict) else None
+        if not isinstance(prov, dict) or "commit" not in data or "commit" not in prov:
+            continue
+        checked += 1
+        folder = str(path.parent.relative_to(ROOT / "experiments/results"))
+        if "commit_end" in prov:  # written by the current code: one read at the start, one at the end
+            assert data["commit"] == prov["commit"], folder
+            continue
+        if data["commit"] != prov["commit"]:
+            rows = [line for line in index.split("\n") if line.startswith(f"| `{folder}/`")]
+            assert rows and "**moved**" in rows[0], f"{folder} names two commits and INDEX.md does not mark it moved"
+    assert checked >= 20

@@ -29,12 +29,13 @@ def load_results(folder) -> dict:
         data = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise ConfigError(f"{path} cannot be read as JSON ({exc})") from None
+    if isinstance(data, dict) and data.get("interrupted"):  # said first: such a summary has no schema yet
+        raise ConfigError(f"{path} is an interrupted run's partial summary ({data.get('completed_jobs', '?')} of "
+                          f"{data.get('total_jobs', '?')} episodes finished): run it again to the end first")
     if not isinstance(data, dict) or not str(data.get("schema", "")).startswith("hvs_sim.servo-results/2"):
         raise ConfigError(f"{path} is not a servo benchmark summary of schema hvs_sim.servo-results/2 (it lacks the "
                           "per-episode records the rules need; results from before the suites cannot be compared): "
                           "run the suite again")
-    if data.get("interrupted"):
-        raise ConfigError(f"{path} is an interrupted run's partial summary: re-run it to the end first")
     if not isinstance(data.get("episodes"), list) or "config" not in data:
         raise ConfigError(f"{path} is not a servo benchmark's summary (no episodes): compare works on `bench servo` "
                           "results")

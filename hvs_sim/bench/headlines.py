@@ -66,16 +66,45 @@ def track_pct(folder: Path, method: str, target_set: bool, visible: bool = False
     return 100.0 * float(np.mean([float(r["error_px"]) <= TRACK_PX for r in rows]))
 
 
+def track_interval(folder: Path, method: str, target_set: bool, resamples: int = 2000) -> tuple[float, float]:
+    """A 95 % interval of track_pct by a seeded bootstrap over the sequences (frames of one sequence are not
+    independent draws; sequences are)."""
+    per: dict[tuple, list[int]] = {}
+    for r in _rows(folder / "frames.csv"):
+        if r["method"] != method or int(r["frame"]) == 0:
+            continue
+        if target_set and (r["scenario"] not in TARGET_SET[0] or r["mount"] != TARGET_SET[1]):
+            continue
+        key = tuple(r[k] for k in list(r)[:3])
+        n_ok = per.setdefault(key, [0, 0])
+        n_ok[0] += 1
+        n_ok[1] += float(r["error_px"]) <= TRACK_PX
+    counts = np.array(list(per.values()), float)
+    rng = np.random.default_rng(0)
+    picks = rng.integers(0, len(counts), (resamples, len(counts)))
+    pct = 100.0 * counts[picks, 1].sum(1) / counts[picks, 0].sum(1)
+    return float(np.percentile(pct, 2.5)), float(np.percentile(pct, 97.5))
+
+
+def agreement(fresh: float, interval: tuple[float, float], fig: Figures, spec: str) -> str:
+    """Whether a fresh draw's figure lies in the test seeds' 95 % interval, said in the table."""
+    lo, hi = interval
+    inside = lo <= fresh <= hi
+    return (f"the fresh draw {'within' if inside else '**outside**'} the test seeds' 95 % interval "
+            f"({fig(lo, spec)}–{fig(hi, spec)})")
+
+
 def servo_figures(folder: Path, scenario: str, method: str) -> dict:
     """Success under the held-to-end rule and median final pose errors, from the per-episode records."""
-    from hvs_sim.bench.stats import episode_success
+    from hvs_sim.bench.stats import episode_success, wilson
 
     data = json.loads((folder / "summary.json").read_text())
     eps = [e for e in data["episodes"] if e["scenario"] == scenario and e["method"] == method]
     if not eps:
         raise ConfigError(f"{folder}/summary.json has no {method} episodes of {scenario}")
     ok = [episode_success(e, data["config"]["success_px"])["hvs_sim"] for e in eps]
-    return {"n": len(eps), "held": 100.0 * float(np.mean(ok)),
+    lo, hi = wilson(sum(ok), len(ok))
+    return {"n": len(eps), "held": 100.0 * float(np.mean(ok)), "held_ci": (100.0 * lo, 100.0 * hi),
             "mm": float(np.median([e["final_pose_error_mm"] for e in eps])),
             "deg": float(np.median([e["final_pose_error_deg"] for e in eps])),
             "p95_mm": float(np.percentile([e["final_pose_error_mm"] for e in eps], 95)),
@@ -97,7 +126,10 @@ def _track_row(root, fig, test: str, fresh: str, methods, target_set: bool) -> s
         rest = ", ".join(f"{m} {fig(track_pct(f, m, target_set), '.1f')} %" for m in methods[1:])
         return f"{lead}; {rest} ({len(seqs)} sequences)"
 
-    return f"test seeds: {one(test)}; fresh seeds: {one(fresh)}"
+    text = f"test seeds: {one(test)}; fresh seeds: {one(fresh)}"
+    fresh_pct = track_pct(root / manifest.load_manifest(root)[fresh].folder, methods[0], target_set)
+    interval = track_interval(root / manifest.load_manifest(root)[test].folder, methods[0], target_set)
+    return f"{text}; hybrid: {agreement(fresh_pct, interval, fig, '.1f')}"
 
 
 def _servo_row(root, fig, test: str, fresh: str, scenarios=("walk_by", "pause"), method="hybrid:homography") -> str:
@@ -105,11 +137,15 @@ def _servo_row(root, fig, test: str, fresh: str, scenarios=("walk_by", "pause"),
         f = _folder(root, name, fig)
         per = [servo_figures(f, s, method) for s in scenarios]
         n = per[0]["n"]
-        return (f"**{' / '.join(fig(p['held'], '.0f') for p in per)} %** {SERVO_RULE}, median "
+        text = (f"**{' / '.join(fig(p['held'], '.0f') for p in per)} %** {SERVO_RULE}, median "
                 f"{' / '.join(fig(p['mm'], '.2f') for p in per)} mm, {' / '.join(fig(p['deg'], '.3f') for p in per)}°, "
                 f"worst {' / '.join(fig(p['worst_mm'], '.1f') for p in per)} mm ({n} episodes each)")
+        return text, per
 
-    return f"test seeds: {one(test)}; fresh seeds: {one(fresh)}"
+    (t_text, t_per), (f_text, f_per) = one(test), one(fresh)
+    agree = "; ".join(f"{s}: {agreement(fp['held'], tp['held_ci'], fig, '.0f')}"
+                      for s, tp, fp in zip(scenarios, t_per, f_per))
+    return f"test seeds: {t_text}; fresh seeds: {f_text}; success {agree}"
 
 
 def _speed_row(root, fig, name: str) -> str:
@@ -119,7 +155,8 @@ def _speed_row(root, fig, name: str) -> str:
     return (f"**{fig(run['steps_per_second'], '.1f')} steps/s** as `make demo` runs it (recording on, wall time; "
             f"{fig(run['steps_per_second_after_first'], '.1f')} after step 0); the hybrid "
             f"{fig(t['hybrid']['median_ms'], '.1f')} ms a 640×480 frame, {fig(t['hybrid_over_ecc'], '.1f')}× ECC on "
-            "the same frames")
+            f"the same frames (the machine's load average {fig(res['load_average_start'], '.1f')} at the start, "
+            f"{fig(res['load_average_end'], '.1f')} at the end)")
 
 
 # (question, how its figures are made): the rows both tables show, in order

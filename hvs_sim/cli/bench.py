@@ -11,6 +11,7 @@ from hvs_sim.cli.common import HelpFormatter, _given, _provenance, add_blur_argu
 from hvs_sim.cliargs import near_goal_inset
 from hvs_sim.errors import ConfigError
 from hvs_sim.outputs import fresh_out_dir, write_atomic
+from hvs_sim.validate import check_number
 
 
 def _check_bench_options(args) -> None:
@@ -130,6 +131,8 @@ def _resolve_seeds(args) -> str | None:
                                   ("--split", args.split)) if v]
     if len(given) > 1:
         raise ConfigError(f"{given[0]} and {given[1]} both choose the seeds: give one")
+    if args.episodes is not None:
+        check_number("--episodes", args.episodes, 1, integer=True)
     if args.fresh is not None and args.episodes is not None:
         raise ConfigError(f"--fresh {args.fresh} is the number of episodes drawn: leave --episodes out")
     suite = getattr(args, "suite_obj", None)
