@@ -150,6 +150,8 @@ def compare_figure(result: dict, path: Path) -> Path:
         ax.legend(loc="upper left", fontsize=8)
     fig.suptitle("final pose error, episode by episode (below the diagonal: A ends closer)", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    from hvs_sim.outputs import save_figure
+
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
