@@ -284,6 +284,97 @@ def safety_cases(tmp: Path):
     yield "track --roi with Arabic-Indic digits", lambda: main(["track", str(frames), "--roi", "١٠,10,30,30"])
 
 
+def issue53_cases(tmp: Path):
+    """The cases an independent sweep found losing data, hanging, crashing or accepted in silence (issue 53); the
+    inputs under tmp/inputs are watched for loss (tests/test_outputs.py and tests/test_refusals.py run them too)."""
+    import os
+
+    import cv2
+    import torch
+
+    from hvs_sim.cli import main
+    from hvs_sim.plugins import build
+    from hvs_sim.tracking import make_tracker
+
+    stubbed = _stub_cli()
+    root = tmp / "inputs" / "i53"
+    png = cv2.imencode(".png", np.random.default_rng(0).integers(0, 255, (96, 128, 3), np.uint8))[1].tobytes()
+
+    def put(path: Path, data: bytes = png) -> Path:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(data)
+        return path
+
+    small = ["--width", "160", "--height", "120", "--frames", "2"]
+    for name in ("preview.png", "frames.mp4"):
+        put(root / "d" / name)
+    put(root / "b" / "budget.png")
+    for k in range(12):
+        put(root / "w" / "frames" / f"wall{k:02d}.png")
+    put(root / "precious" / "00000.png")
+    (root / "l").mkdir()
+    (root / "l" / "frames").symlink_to(root / "precious")
+    put(root / "r" / "r_steps.csv", b"mine")
+    put(root / "fig" / "frames.png")
+    put(root / "demo" / "run.json", b"mine")
+    put(root / "sw" / "results.csv", b"mine")
+    spec = put(tmp / "s.toml", b'kind = "servo"\n[axes]\nseed = [1]\n[fixed]\nsteps = 2\n')
+    put(tmp / "tasks_file" / "tasks", b"a file")
+    loop = tmp / "loop.mp4"
+    loop.symlink_to(loop)
+    cut = put(tmp / "cut.jpg", cv2.imencode(".jpg", np.random.default_rng(1).integers(0, 255, (240, 320, 3), np.uint8))[1]
+              .tobytes()[:4000])
+    fifo = tmp / "gru.pt"
+    os.mkfifo(fifo)
+    evil_npz = tmp / "evil.npz"
+    np.savez(evil_npz, conv1_1_w=np.array([object()], dtype=object), conv1_1_b=np.zeros(64))
+    evil_pt = tmp / "evil.pt"
+    torch.save({"x": SimpleNamespace(a=1)}, evil_pt)
+    exits = put(tmp / "exits.py", b"import sys\nsys.exit(0)\n")
+    exits_in_factory = put(tmp / "exits_later.py", b"import sys\ndef make(**kw):\n    sys.exit(0)\n")
+    cli = {
+        "--overwrite with an input named preview.png": ["scene", *small, "--target-image", str(root / "d" / "preview.png"),
+                                                        "--out", str(root / "d"), "--overwrite"],
+        "--overwrite with an input named frames.mp4": ["scene", *small, "--target-image", str(root / "d" / "frames.mp4"),
+                                                       "--out", str(root / "d"), "--overwrite"],
+        "budget --target-image o/budget.png --out o --overwrite": ["budget", "--bound-only", "--target-image",
+                                                                   str(root / "b" / "budget.png"), "--out",
+                                                                   str(root / "b"), "--overwrite"],
+        "scene --wall-images o/frames --out o --overwrite": ["scene", *small, "--format", "png", "--wall-images",
+                                                             str(root / "w" / "frames"), "--out", str(root / "w"),
+                                                             "--overwrite"],
+        "scene --out o --overwrite, o/frames a link": ["scene", *small, "--format", "png", "--out", str(root / "l"),
+                                                       "--overwrite"],
+        "run --json r.json beside a user's r_steps.csv": ["run", "--json", str(root / "r" / "r.json")],
+        "run --figures fig holding a user's frames.png": ["run", "--figures", str(root / "fig")],
+        "demo --out o holding a user's run.json": ["demo", "--out", str(root / "demo")],
+        "sweep --out o holding a user's results.csv": ["sweep", str(spec), "--out", str(root / "sw")],
+        "sweep --out o whose tasks is a file": ["sweep", str(spec), "--out", str(tmp / "tasks_file")],
+        "run --tracker hybrid --set scale=abc": ["run", "--tracker", "hybrid", "--set", "scale=abc"],
+        "run --tracker hybrid --set scale=nan": ["run", "--tracker", "hybrid", "--set", "scale=nan"],
+        "run --tracker /etc/passwd:root": ["run", "--tracker", "/etc/passwd:root"],
+        "run --tracker plug/../../../etc/passwd:x": ["run", "--tracker", "plug/../../../../../../etc/passwd:x"],
+        "scene --out o --mcap o": ["scene", *small, "--out", str(tmp / "same"), "--mcap", str(tmp / "same")],
+        "run --json with a 300-character name": ["run", "--json", str(tmp / ("r" * 300 + ".json"))],
+        "track a symlink loop": ["track", str(loop), "--roi", "1,1,30,30", "--out", str(tmp / "t1")],
+        "scene --frames 100000000": ["scene", "--frames", "100000000", "--out", str(tmp / "big")],
+        "track --out ''": ["track", str(root / "w" / "frames"), "--roi", "1,1,30,30", "--out", ""],
+        "scene --target-image a truncated JPEG": ["scene", "--width", "160", "--height", "120", "--frames", "1",
+                                                 "--target-image", str(cut), "--out", str(tmp / "cut")],
+        "run --tracker a file calling sys.exit at import": ["run", "--tracker", f"{exits}:make"],
+        "run --roi 5 (an abbreviation of --roi-inset)": ["run", "--roi", "5"],
+    }
+    try:
+        for label, argv in cli.items():
+            yield f"hvs-sim {label}", lambda argv=argv: main(argv)
+    finally:
+        stubbed()
+    yield "make_tracker(gru_weights=a FIFO)", lambda: make_tracker("hybrid", gru_weights=str(fifo))
+    yield "make_tracker(weights=an .npz of object arrays)", lambda: make_tracker("hybrid", weights=str(evil_npz))
+    yield "make_tracker(gru_weights=a pickled object .pt)", lambda: make_tracker("hybrid", gru_weights=str(evil_pt))
+    yield "a plugin factory calling sys.exit", lambda: build("tracker", f"{exits_in_factory}:make")
+
+
 def _stub_cli():
     """Replace the long work behind the commands (as tests/test_fuzz.py does); returns an undo."""
     from hvs_sim import runner
@@ -331,7 +422,8 @@ def main() -> None:
     rows = []
     with tempfile.TemporaryDirectory(ignore_cleanup_errors=True) as tmp:  # a full-disk mount may stay busy
         for area, cases in (("trackers", tracker_cases()), ("control", control_cases()), ("env", env_cases()),
-                            ("cli", cli_cases(Path(tmp))), ("outputs, plugins, files", safety_cases(Path(tmp)))):
+                            ("cli", cli_cases(Path(tmp))), ("outputs, plugins, files", safety_cases(Path(tmp))),
+                            ("outputs, plugins, files (issue 53)", issue53_cases(Path(tmp)))):
             for label, fn in cases:
                 outcome, detail = classify(fn, Path(tmp) / "inputs" if area.startswith("outputs") else None)
                 rows.append({"area": area, "input": label, "outcome": outcome, "detail": detail})

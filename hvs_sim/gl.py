@@ -16,20 +16,25 @@ _INSTALL_HINT = (
 )
 
 
+GL_PROBE_TIMEOUT_S = 60  # a back-end whose probe has not made a context by then is taken as not working
+_PROBE = "from mujoco.{0} import GLContext\nc = GLContext(8, 8)\nc.make_current()\nc.free()\n"
+
+
 def _probe(backend: str) -> bool:
+    """Whether `backend` makes a GL context, tried in a child process: a context made here would leave the driver
+    initialised in this process, and a process forked from it (gymnasium's AsyncVectorEnv with its default 'fork')
+    would then hang for ever making its own."""
+    import subprocess
+    import sys
+
+    os.environ.setdefault("PYOPENGL_PLATFORM", backend)
+    env = {**os.environ, "PYOPENGL_PLATFORM": os.environ["PYOPENGL_PLATFORM"], "MUJOCO_GL": backend}
     try:
-        if backend == "egl":
-            os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
-            from mujoco.egl import GLContext
-        else:
-            os.environ.setdefault("PYOPENGL_PLATFORM", "osmesa")
-            from mujoco.osmesa import GLContext
-        ctx = GLContext(8, 8)
-        ctx.make_current()
-        ctx.free()
-        return True
-    except Exception:  # noqa: BLE001 - any failure means "this back-end is not usable here"
+        done = subprocess.run([sys.executable, "-c", _PROBE.format(backend)], env=env, capture_output=True,
+                              timeout=GL_PROBE_TIMEOUT_S, check=False)
+    except (OSError, subprocess.SubprocessError):
         return False
+    return done.returncode == 0
 
 
 _RENDERED_IN: int | None = None  # pid of the process that first rendered with MuJoCo's GL context

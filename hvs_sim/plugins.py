@@ -25,6 +25,7 @@ module:callable or file a name resolves to, and import it again there; a name re
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib
 import importlib.util
@@ -42,12 +43,50 @@ KINDS = ("tracker", "controller", "policy")
 GROUPS = {"tracker": "hvs_sim.trackers", "controller": "hvs_sim.controllers", "policy": "hvs_sim.policies"}  # entry points
 GROUND_TRUTH = "ground_truth"  # the oracle: the loop's features from the simulator
 NO_TRACKER = "none"  # no tracker: for laws that read only the images (dvs) and for policies
+PLUGIN_TIMEOUT_S = 120.0  # an outside module's import or factory that has not returned by then is stopped as hung
 # what a plugin object must have, by kind
 INTERFACE = {"tracker": ("init", "update"), "controller": ("compute",), "policy": ("act",)}
 
 
 class PluginFault(HvsError, ValueError):
     """An outside method's answer was malformed (the loop records it as the step's fault)."""
+
+
+class PluginTimeout(ConfigError):
+    """An outside module's import or factory did not return within PLUGIN_TIMEOUT_S."""
+
+
+@contextlib.contextmanager
+def _time_limit(what: str):
+    """Stop user code that hangs (SIGALRM, in the main thread, where Python code can be interrupted) with a
+    PluginTimeout naming it; elsewhere (a worker thread), or under a caller's own alarm, it is left to that."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread() or not PLUGIN_TIMEOUT_S or \
+            signal.getitimer(signal.ITIMER_REAL)[0] > 0:  # another timer (the caller's own) is already watching
+        yield
+        return
+    limit = PLUGIN_TIMEOUT_S
+
+    def expire(signum, frame):
+        raise PluginTimeout(f"{what} did not return within {limit:g} s (hvs_sim.plugins.PLUGIN_TIMEOUT_S) and was "
+                            "stopped; a factory must build its method and return it")
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, limit)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def _outside_failure(exc: BaseException) -> str:
+    """How outside code failed, for a message: an exception, or a sys.exit (which is not a result)."""
+    if isinstance(exc, SystemExit):
+        return f"as it called sys.exit({exc.code!r}), which a plugin may not do (return or raise instead)"
+    return f"{type(exc).__name__}: {exc}"
 
 
 @dataclass(frozen=True)
@@ -163,20 +202,32 @@ def accepted_text(kind: str) -> str:
 
 
 def _load_file(path: str) -> object:
-    p = Path(path).expanduser().resolve()
+    try:
+        p = Path(path).expanduser().resolve()
+    except (OSError, RuntimeError) as exc:  # a link loop
+        raise ConfigError(f"plugin file {path!r} cannot be resolved ({exc})") from None
     if not p.is_file():
-        raise ConfigError(f"plugin file {path!r} not found (resolved to {p})")
+        raise ConfigError(f"plugin file {path!r} not found or not a regular file (resolved to {p})")
+    if p.suffix != ".py":
+        raise ConfigError(f"plugin file {path!r} is not a Python file; accepted: path/to/file.py:callable")
     name = "hvs_sim._plugin_file_" + hashlib.sha1(str(p).encode()).hexdigest()[:12]
     if name in sys.modules:
         return sys.modules[name]
     spec = importlib.util.spec_from_file_location(name, p)
+    if spec is None or spec.loader is None:
+        raise ConfigError(f"plugin file {path!r} cannot be imported as Python; accepted: path/to/file.py:callable")
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
     try:
-        spec.loader.exec_module(module)
-    except Exception as exc:  # noqa: BLE001 - any failure of outside code becomes a ConfigError saying so
+        with _time_limit(f"importing plugin file {path!r}"):
+            spec.loader.exec_module(module)
+    except PluginTimeout:
         del sys.modules[name]
-        raise ConfigError(f"plugin file {path!r} failed to import: {type(exc).__name__}: {exc}") from None
+        raise
+    except (Exception, SystemExit) as exc:  # noqa: BLE001 - any failure of outside code becomes a ConfigError
+        del sys.modules[name]
+        raise ConfigError(f"plugin file {path!r} failed to import{' ' if isinstance(exc, SystemExit) else ': '}"
+                          f"{_outside_failure(exc)}") from None
     module.__hvs_plugin_ref__ = f"{p}:"  # + a callable's name: the file's portable reference (_portable_ref)
     return module
 
@@ -191,9 +242,12 @@ def _load_reference(kind: str, ref: str) -> Plugin:
         portable = f"{Path(target).expanduser().resolve()}:{attr}"
     else:
         try:
-            module = importlib.import_module(target)
-        except Exception as exc:  # noqa: BLE001 - ImportError, or the module's own import-time error
-            raise ConfigError(f"cannot import module {target!r} for {kind} {ref!r} ({type(exc).__name__}: {exc}); the "
+            with _time_limit(f"importing module {target!r}"):
+                module = importlib.import_module(target)
+        except PluginTimeout:
+            raise
+        except (Exception, SystemExit) as exc:  # noqa: BLE001 - ImportError, or the module's own import-time error
+            raise ConfigError(f"cannot import module {target!r} for {kind} {ref!r} ({_outside_failure(exc)}); the "
                               "module must be importable by this Python (installed, on PYTHONPATH, or given as a file "
                               "path/to/file.py:callable); on Ray it must be importable on every worker") from None
         portable = ref
@@ -224,9 +278,12 @@ def resolve(kind: str, text: str) -> Plugin | None:
     if text in eps:
         ep = eps[text]
         try:
-            factory = ep.load()
-        except Exception as exc:  # noqa: BLE001 - any failure of outside code becomes a ConfigError saying so
-            raise ConfigError(f"{kind} entry point {text!r} ({ep.value}) failed to load: {type(exc).__name__}: {exc}") \
+            with _time_limit(f"{kind} entry point {text!r} ({ep.value})"):
+                factory = ep.load()
+        except PluginTimeout:
+            raise
+        except (Exception, SystemExit) as exc:  # noqa: BLE001 - any failure of outside code becomes a ConfigError
+            raise ConfigError(f"{kind} entry point {text!r} ({ep.value}) failed to load: {_outside_failure(exc)}") \
                 from None
         if not callable(factory):
             raise ConfigError(f"{kind} entry point {text!r} ({ep.value}) is not callable")
@@ -258,11 +315,13 @@ def build(kind: str, text: str, **settings):
     if plugin is None:
         raise ConfigError(f"{kind} {text!r} is a built-in, not a plugin")
     try:
-        obj = plugin.factory(**settings)
+        with _time_limit(f"{kind} {text!r}'s factory"):
+            obj = plugin.factory(**settings)
     except HvsError:
         raise
-    except Exception as exc:  # noqa: BLE001 - any failure of outside code becomes a ConfigError saying so
-        raise ConfigError(f"{kind} {text!r}: its factory failed with {type(exc).__name__}: {exc}") from None
+    except (Exception, SystemExit) as exc:  # noqa: BLE001 - any failure of outside code becomes a ConfigError
+        how = _outside_failure(exc) if isinstance(exc, SystemExit) else f"with {_outside_failure(exc)}"
+        raise ConfigError(f"{kind} {text!r}: its factory failed {how}") from None
     missing = [m for m in INTERFACE[kind] if not callable(getattr(obj, m, None))]
     if missing:
         raise ConfigError(f"{kind} {text!r}: its factory returned {type(obj).__name__}, which lacks "

@@ -13,7 +13,7 @@ import numpy as np
 
 from hvs_sim.errors import ConfigError, OutputError
 from hvs_sim.loop import LoopConfig, RunStats, ServoLoop, StepRecord
-from hvs_sim.outputs import settle, temporary_beside, write_atomic
+from hvs_sim.outputs import open_output, output_error, settle, temporary_beside, write_atomic
 from hvs_sim.scene.scenarios import Scenario
 
 FIGURE_RISING_OCCLUSION = 0.3  # frames.png's second tile: the first step with more of the target hidden
@@ -75,7 +75,7 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
     if json_path:
         Path(json_path).parent.mkdir(parents=True, exist_ok=True)
         csv_tmp = temporary_beside(steps_csv_path(json_path))  # renamed into place when closed
-        csv_file = open(csv_tmp, "w", newline="")  # noqa: SIM115 - closed in finally
+        csv_file = open_output(csv_tmp)  # closed in finally
         steps_csv = csv.writer(csv_file)
         steps_csv.writerow(STEP_COLUMNS)
     bar = tqdm(total=config.steps, disable=not progress, desc=f"{scenario.name}/{tracker}", unit="step")
@@ -107,7 +107,11 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
         bar.close()
         keep = completed or (interrupted and stats.n > 0)  # a run that failed leaves no half result behind
         if csv_file is not None:
-            csv_file.close()
+            try:
+                csv_file.close()
+            except OSError as exc:  # its last rows did not fit on the disk: no truncated CSV is left
+                settle(csv_tmp, steps_csv_path(json_path), keep=False)
+                raise output_error(steps_csv_path(json_path), exc) from None
             settle(csv_tmp, steps_csv_path(json_path), keep)
         if logger is not None:  # a complete recording of the steps so far, whatever stopped the run
             logger.drain()  # the queued steps first: whether logging failed is known after them

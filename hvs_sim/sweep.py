@@ -304,7 +304,7 @@ def _portable(params: dict) -> dict:
 def _write_atomic(path: Path, data: dict) -> None:
     from hvs_sim.outputs import write_atomic
 
-    write_atomic(path, json.dumps(data, indent=1))
+    write_atomic(path, json.dumps(data, indent=1), recorded=None)  # the sweep's own folder: spec.json marks it
 
 
 def _run_local(jobs, workers, on_done, progress) -> None:
@@ -348,12 +348,39 @@ def _run_ray(jobs, workers, address, on_done, progress) -> None:
         ray.shutdown()
 
 
+SWEEP_FILES = ("results.csv", "report.md", "report.png")  # what a sweep writes beside spec.json and tasks/
+
+
+def _check_sweep_folder(out: Path) -> Path:
+    """A sweep writes into a new or empty folder or one of its own (spec.json): never over a results.csv (or a
+    report) in a folder that is not a sweep's, and `tasks` must be a folder."""
+    tasks = out / "tasks"
+    if tasks.is_symlink() or (tasks.exists() and not tasks.is_dir()):
+        raise ConfigError(f"{tasks} is a file or a link, where a sweep keeps its task records in a folder; give "
+                          "another --out")
+    if not (out / "spec.json").is_file():
+        clash = [n for n in SWEEP_FILES if (out / n).exists() or (out / n).is_symlink()]
+        if clash:
+            raise ConfigError(f"{out} is not a sweep folder (no spec.json) and holds {', '.join(clash)}, which the "
+                              "sweep would replace; give a new or empty --out (nothing was written)")
+    for name in ("spec.json", *SWEEP_FILES):
+        if (out / name).is_symlink():
+            raise ConfigError(f"{out / name} is a symbolic link; hvs_sim does not write through links: remove it or "
+                              "give another --out")
+    return out
+
+
 def _lock(out: Path):
     """The sweep folder's lock, held until the returned file is closed (or the process ends, even killed): a second
     sweep into the folder is refused instead of racing on its files."""
     import fcntl
 
-    f = open(out / LOCK_NAME, "a+")  # noqa: SIM115 - closed by the caller
+    from hvs_sim.outputs import output_error
+
+    try:
+        f = open(out / LOCK_NAME, "a+")  # noqa: SIM115 - closed by the caller
+    except OSError as exc:  # a read-only or full disk
+        raise output_error(out / LOCK_NAME, exc) from None
     try:
         fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except OSError:
@@ -362,10 +389,14 @@ def _lock(out: Path):
         f.close()
         raise ConfigError(f"another sweep is writing {out} ({holder}); wait for it to end, or give another --out") \
             from None
-    f.seek(0)
-    f.truncate()
-    f.write(f"pid {os.getpid()}")
-    f.flush()
+    try:
+        f.seek(0)
+        f.truncate()
+        f.write(f"pid {os.getpid()}")
+        f.flush()
+    except OSError as exc:  # the holder's pid did not fit on the disk: the lock itself is held, the sweep cannot go on
+        f.close()
+        raise output_error(out / LOCK_NAME, exc) from None
     return f
 
 
@@ -395,8 +426,26 @@ def _task_state(path: Path) -> str:
             or not isinstance(record["params"], dict):
         return "corrupt"
     if record["status"] == "ok":
-        return "ok" if isinstance(record.get("metrics"), dict) else "corrupt"
+        return "ok" if _metrics_ok(record.get("metrics")) else "corrupt"
     return "error"
+
+
+def _number(v) -> bool:
+    return isinstance(v, (int, float))  # bool is an int: a verdict such as `success`
+
+
+def _metrics_ok(metrics) -> bool:
+    """A done task's metrics as run_task writes them: numbers, verdicts or null, and a track task's per-frame
+    `errors` a list of numbers. Anything else (a string "NaN", a list where a number goes) is a damaged record."""
+    if not isinstance(metrics, dict):
+        return False
+    for key, value in metrics.items():
+        if key == "errors":
+            if not (isinstance(value, list) and all(_number(e) for e in value)):
+                return False
+        elif value is not None and not _number(value):
+            return False
+    return True
 
 
 def run_sweep(spec: SweepSpec, out, engine: str = "local", workers: int = 1, address: str | None = None,
@@ -417,7 +466,7 @@ def run_sweep(spec: SweepSpec, out, engine: str = "local", workers: int = 1, add
         raise ConfigError(f"the spec's grid has {n} tasks, more than {max_tasks}; shorten its axes, or raise the limit "
                           "(--max-tasks)")
     check_grid(spec)
-    out = prepare_out_dir(out)
+    out = _check_sweep_folder(prepare_out_dir(out))
     lock = _lock(out)
     try:
         _check_spec_file(spec, out)
@@ -459,14 +508,17 @@ def run_sweep(spec: SweepSpec, out, engine: str = "local", workers: int = 1, add
 # ------------------------------------------------------------------------------------ results
 
 
-def load_records(spec: SweepSpec, out) -> list[dict]:
-    """The finished tasks of `spec` in `out` (grid order)."""
+def load_records(spec: SweepSpec, out, unreadable: list | None = None) -> list[dict]:
+    """The finished tasks of `spec` in `out` (grid order); the ids of damaged records are appended to `unreadable`."""
     tasks_dir = Path(out) / "tasks"
     records = []
     for p in spec.tasks():
         f = tasks_dir / f"{task_id(spec.kind, p)}.json"
-        if _task_state(f) in ("ok", "error"):  # an unreadable record counts as not done (re-run sets it aside)
+        state = _task_state(f)
+        if state in ("ok", "error"):  # an unreadable record counts as not done (re-run sets it aside)
             records.append(json.loads(f.read_text()))
+        elif state == "corrupt" and unreadable is not None:
+            unreadable.append(f.stem)
     return records
 
 
@@ -507,9 +559,12 @@ def report(out, by: list[str], figures: bool = True) -> str:
     except (OSError, ValueError, TypeError) as exc:
         raise ConfigError(f"{spec_file} cannot be read ({type(exc).__name__}: {exc}); run the sweep's spec into {out} "
                           "again to rewrite it") from None
-    records = load_records(spec, out)
+    unreadable: list[str] = []
+    records = load_records(spec, out, unreadable)
+    damaged = (f"{len(unreadable)} task record(s) unreadable or damaged, left out (re-run the sweep to run them "
+               f"again): {', '.join(unreadable[:5])}" + (", …" if len(unreadable) > 5 else "")) if unreadable else ""
     if not records:
-        raise ConfigError(f"{out}: no finished tasks yet")
+        raise ConfigError(f"{out}: no finished tasks yet" + (f"; {damaged}" if damaged else ""))
     keys = list(spec.tasks()[0])
     bad = [b for b in by if b not in keys]
     if bad or not by:
@@ -538,7 +593,7 @@ def report(out, by: list[str], figures: bool = True) -> str:
                      f"{np.median(err):.2f}" if err.size else "–", f"{np.percentile(err, 95):.2f}" if err.size else "–"]
             stats[g] = {"errors": err}
         lines.append(f"| {' | '.join(map(str, g))} | {' | '.join(map(str, cells))} |")
-    text = "\n".join(lines) + "\n"
+    text = "\n".join(lines) + "\n" + (f"\n{damaged}\n" if damaged else "")
     from hvs_sim.outputs import write_atomic
 
     write_atomic(out / "report.md", text)
@@ -582,5 +637,7 @@ def _report_figures(kind: str, stats: dict, by: list[str], out: Path) -> None:
              "fraction of frames")
     fig.suptitle(f"sweep grouped by {', '.join(by)}")
     fig.tight_layout()
-    fig.savefig(out / "report.png", dpi=90)
+    from hvs_sim.outputs import save_figure
+
+    save_figure(fig, out / "report.png", dpi=90)
     plt.close(fig)

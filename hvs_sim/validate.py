@@ -28,6 +28,26 @@ def check_number(name: str, value, lo: float | None = None, hi: float | None = N
         raise ConfigError(f"{name} must be {kind}{rng if (lo is not None or hi is not None) else ''}, got {value!r}")
 
 
+def check_regular_file(path, what: str, error=ConfigError):
+    """A file that will be opened and read whole: refuse, before opening it, what is not a regular file (a FIFO or a
+    device would block the read forever, a folder fails it) and a link that loops. Returns it as a Path."""
+    import stat
+    from pathlib import Path
+
+    path = Path(path)
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        raise error(f"{what} {path} does not exist") from None
+    except (OSError, RuntimeError) as exc:  # a link loop, a name too long, no permission
+        raise error(f"{what} {path} cannot be read ({getattr(exc, 'strerror', None) or exc})") from None
+    if not stat.S_ISREG(mode):
+        kind = ("a named pipe (FIFO)" if stat.S_ISFIFO(mode) else "a folder" if stat.S_ISDIR(mode)
+                else "a device or socket")
+        raise error(f"{what} {path} is {kind}, not a regular file; give a weights file")
+    return path
+
+
 def check_flags(config, names: tuple[str, ...]) -> None:
     """Each named attribute of `config` is True or False (numpy's bool too): a truthy string such as 'no' would
     otherwise switch a setting on without a word."""

@@ -59,7 +59,15 @@ from tqdm import tqdm
 
 from hvs_sim.cliargs import DEFAULT_TRACKER, add_settings_option, parse_settings
 from hvs_sim.errors import ConfigError, InputError, OutputError
-from hvs_sim.outputs import check_apart, check_output_file, fresh_out_dir, settle, temporary_beside
+from hvs_sim.outputs import (
+    check_apart,
+    check_output_file,
+    check_replaceable,
+    fresh_out_dir,
+    open_output,
+    settle,
+    temporary_beside,
+)
 from hvs_sim.plugins import check_any_tracker, make_any_tracker
 from hvs_sim.tracking import TRACKER_NAMES, Track
 from hvs_sim.tracking.frames import MIN_ROI, check_roi
@@ -331,7 +339,7 @@ class TrackOutputs:
     def _start(self, size: tuple[int, int], fps: float) -> None:
         from hvs_sim.videoio import Mp4Writer
 
-        self.video = Mp4Writer(self.video_path, fps, size)  # H.264 (mp4v when PyAV's encoder is missing)
+        self.video = Mp4Writer(self.video_path, fps, size, shown=self.final[1])  # H.264 (mp4v when PyAV's encoder is missing)
         self._open.callback(self.video.close)
         self.rerun = RerunTrackLog(self.rrd, fps, self.final[-1]) if self.rrd else None
         if self.rerun:
@@ -341,7 +349,7 @@ class TrackOutputs:
 
             self.bag = FootageBag(self.mcap, fps, name=self.final[-1].name)
             self._open.callback(self.bag.close)
-        self.csv = csv.writer(self._open.enter_context(self.csv_path.open("w", newline="")))
+        self.csv = csv.writer(self._open.enter_context(open_output(self.csv_path)))
         self.csv.writerow(CSV_COLUMNS)
 
     def write(self, index: int, frame: np.ndarray, track: Track) -> None:
@@ -458,10 +466,12 @@ def track_footage(path, roi, tracker: str = DEFAULT_TRACKER, out="out/track", rr
         raise ConfigError(f"--mcap {mcap} exists: a ROS 2 bag is a new folder; give a path that does not exist")
     check_apart([path], {"--out's track.csv": Path(out) / CSV_NAME, "--out's annotated.mp4": Path(out) / VIDEO_NAME,
                          "--rrd": None if rrd is None else Path(rrd), "--mcap": None if mcap is None else Path(mcap)})
+    check_replaceable({"--out's track.csv": Path(out) / CSV_NAME, "--out's annotated.mp4": Path(out) / VIDEO_NAME},
+                      overwrite=True, root=out)  # never written through a link
     source = open_frames(path, start, end)
     try:
         roi = check_roi(roi, source.first.shape[:2])
-        out = fresh_out_dir(out, overwrite, (CSV_NAME, VIDEO_NAME), clear=False)
+        out = fresh_out_dir(out, overwrite, (CSV_NAME, VIDEO_NAME), clear=False, inputs=[path])
         rrd = prepare_rrd(rrd)
         method = make_any_tracker(tracker, **settings)
         outputs = TrackOutputs(out, source.size, source.fps, rrd, None if mcap is None else Path(mcap))
@@ -554,15 +564,17 @@ def add_track_parser(sub) -> None:
 
 
 def cmd_track(args) -> int:
+    from hvs_sim.cli.common import stop_reason
+
     try:
         result = track_footage(args.path, args.roi, args.tracker, args.out, args.rrd,
                                settings=parse_settings(args.set), overwrite=args.overwrite, target=args.target,
                                mcap=args.mcap, start=args.start, end=args.end)
     except KeyboardInterrupt:  # before the first frame was tracked: nothing was written
-        print("hvs-sim: interrupted (Ctrl-C) before tracking started; nothing written", file=sys.stderr)
+        print(f"hvs-sim: {stop_reason()} before tracking started; nothing written", file=sys.stderr)
         return EXIT_INTERRUPTED
     print(result.summary())
     if result.interrupted:
-        print("hvs-sim: interrupted (Ctrl-C); the frames tracked so far are kept", file=sys.stderr)
+        print(f"hvs-sim: {stop_reason()}; the frames tracked so far are kept", file=sys.stderr)
         return EXIT_INTERRUPTED
     return 0

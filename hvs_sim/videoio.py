@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hvs_sim import outputs
 from hvs_sim.errors import OutputError
 
 log = logging.getLogger(__name__)
@@ -22,8 +23,9 @@ class Mp4Writer:
     """Frames (H×W×3 uint8 RGB) appended one at a time to an H.264 MP4 (or mp4v when H.264 is not available). Odd
     sizes are padded by one pixel of the last row/column (yuv420p needs even sizes)."""
 
-    def __init__(self, path, fps: float, size: tuple[int, int]):
+    def __init__(self, path, fps: float, size: tuple[int, int], shown=None):
         self.path, self.size, self.frames = Path(path), (int(size[0]), int(size[1])), 0
+        self.shown = Path(shown or path)  # the name an error gives: the final file, not its temporary
         self._av = self._cv = None
         try:
             import av
@@ -49,6 +51,18 @@ class Mp4Writer:
             log.warning("H.264 not available (%s): writing %s as mp4v, which browsers do not play", exc, self.path)
 
     def write(self, rgb: np.ndarray) -> None:
+        """One frame; a full disk is an OutputError before FFmpeg is handed a chunk it cannot write (it may crash)."""
+        try:
+            outputs.ensure_space(self.path, rgb.nbytes)
+            self._write(rgb)
+        except OSError as exc:
+            raise outputs.output_error(self.shown, exc) from None
+        except Exception as exc:
+            if _ffmpeg_error(exc):
+                raise outputs.output_error(self.shown, exc) from None
+            raise
+
+    def _write(self, rgb: np.ndarray) -> None:
         if self._av is not None:
             import av
 
@@ -65,6 +79,16 @@ class Mp4Writer:
         self.frames += 1
 
     def close(self) -> None:
+        try:
+            self._close()
+        except OSError as exc:
+            raise outputs.output_error(self.shown, exc) from None
+        except Exception as exc:
+            if _ffmpeg_error(exc):
+                raise outputs.output_error(self.shown, exc) from None
+            raise
+
+    def _close(self) -> None:
         if self._av is not None:
             for packet in self._stream.encode():  # flush the encoder's delayed frames
                 self._av.mux(packet)
@@ -73,6 +97,15 @@ class Mp4Writer:
         elif self._cv is not None:
             self._cv.release()
             self._cv = None
+
+
+def _ffmpeg_error(exc: BaseException) -> bool:
+    """A failure of FFmpeg inside PyAV (a write it could not finish), as opposed to a bug in the caller."""
+    try:
+        import av
+    except ImportError:
+        return False
+    return isinstance(exc, av.error.FFmpegError)
 
 
 def _rate(fps: float):

@@ -15,7 +15,7 @@ import pytest
 from hvs_sim.cli import build_parser, main
 from hvs_sim.errors import InputError, StateError
 from hvs_sim.loop import LoopConfig, ServoLoop
-from hvs_sim.outputs import fresh_out_dir
+from hvs_sim.outputs import fresh_out_dir, record
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 
 
@@ -42,7 +42,8 @@ def test_run_has_no_mount_option_and_checks_its_outputs_first(tmp_path, capsys):
 
 
 def test_scene_refuses_zero_frames_and_a_non_empty_out(tmp_path, capsys):
-    _fails(["scene", "--frames", "0", "--out", str(tmp_path / "a")], capsys, "--frames must be >= 1")
+    _fails(["scene", "--frames", "0", "--out", str(tmp_path / "a")], capsys, "--frames must be from 1 to")
+    _fails(["scene", "--frames", "100000000", "--out", str(tmp_path / "a")], capsys, "--frames must be from 1 to 36000")
     (tmp_path / "b").mkdir()
     (tmp_path / "b" / "old.txt").write_text("x")
     _fails(["scene", "--frames", "1", "--out", str(tmp_path / "b")], capsys, "not empty", "--overwrite")
@@ -65,6 +66,9 @@ def test_bench_refuses_a_non_empty_out_and_overwrite_replaces_only_its_own_files
     (out / "fig7_walk_by.png").write_bytes(b"stale")
     (out / "notes.txt").write_text("mine")
     _fails(["bench", "track", "--smoke", "--out", str(out)], capsys, "not empty", "fig7_walk_by.png")
+    fresh_out_dir(out, True, ("summary.json", "*.png"))  # no manifest: hvs_sim wrote none of them, none goes
+    assert (out / "fig7_walk_by.png").read_bytes() == b"stale" and (out / "notes.txt").read_text() == "mine"
+    record([out / "fig7_walk_by.png"])  # as an earlier benchmark writing it would have
     fresh_out_dir(out, True, ("summary.json", "*.png"))
     assert not (out / "fig7_walk_by.png").exists() and (out / "notes.txt").read_text() == "mine"
 
@@ -89,8 +93,10 @@ def test_closed_loop_stops_with_a_clear_error_when_the_tracker_cannot_start(monk
 @pytest.mark.slow
 @pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
 def test_a_signalled_run_stops_cleanly_and_keeps_a_summary_marked_interrupted(tmp_path, sig, code):
+    from hvs_sim.loop import MAX_STEPS  # a run that cannot end before the signal, however loaded the machine
+
     out_json, out_rrd = tmp_path / "run.json", tmp_path / "run.rrd"
-    cmd = [sys.executable, "-m", "hvs_sim.cli", "run", "--scenario", "clear", "--steps", "400", "--tracker",
+    cmd = [sys.executable, "-m", "hvs_sim.cli", "run", "--scenario", "clear", "--steps", str(MAX_STEPS), "--tracker",
            "ground_truth", "--width", "320", "--height", "240", "--json", str(out_json), "--rrd", str(out_rrd)]
     proc = subprocess.Popen(cmd, stderr=subprocess.PIPE, stdout=subprocess.PIPE, env={**os.environ, "MUJOCO_GL": "egl"})
     seen, buf = 0, b""
@@ -100,7 +106,7 @@ def test_a_signalled_run_stops_cleanly_and_keeps_a_summary_marked_interrupted(tm
         if not chunk:
             break
         buf += chunk
-        counts = re.findall(rb"(\d+)/400", buf)
+        counts = re.findall(rb"(\d+)/" + str(MAX_STEPS).encode(), buf)
         seen = int(counts[-1]) if counts else 0
     assert seen >= 5, buf.decode(errors="replace")[-2000:]
     proc.send_signal(sig)
@@ -108,7 +114,7 @@ def test_a_signalled_run_stops_cleanly_and_keeps_a_summary_marked_interrupted(tm
     assert proc.returncode == code, err.decode(errors="replace")[-2000:]
     assert "Traceback" not in err.decode(errors="replace")
     summary = json.loads(out_json.read_text())
-    assert summary["interrupted"] is True and 5 <= summary["steps_run"] < 400
+    assert summary["interrupted"] is True and 5 <= summary["steps_run"] < MAX_STEPS
     assert out_rrd.stat().st_size > 0
 
 

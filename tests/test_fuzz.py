@@ -7,6 +7,7 @@ from __future__ import annotations
 import contextlib
 import json
 import math
+import os
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -100,7 +101,7 @@ def stubs(monkeypatch, tmp_path):
                            "final_pose_error_deg", "final_controlled_pose_error_mm",
                            "final_controlled_pose_error_deg", "controlled_dofs", "max_error_px_during_occlusion",
                            "lost_steps", "predict_steps", "fault_steps", "steps_per_second"), 0)
-    brief.update(not_converged_because="image 1.00 px > 0.5 px", faults=[])
+    brief.update(not_converged_because="image 1.00 px > 0.5 px", faults=[], figures=[])
     monkeypatch.setattr(runner, "run_episode", lambda *a, **k: (brief, []))
     monkeypatch.setattr(sequence, "write_sequence", lambda *a, **k: {"frames": 1, "peak_occlusion": 0.0})
     gt = SimpleNamespace(corners=np.array([[1.0, 1], [9, 1], [9, 9], [1, 9]]), center=np.array([5.0, 5.0]))
@@ -206,6 +207,79 @@ def test_bench_seeds_come_from_a_split_or_a_fresh_draw(stubs, capsys):
                       (["--fresh", "3", "--episodes", "4"], "leave --episodes out")):
         assert main(["bench", "servo", *argv, "--out", str(stubs / "x")]) == 2
         assert msg in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------------------------------ CLI, from the parsers
+
+# The commands the property below draws from: those whose long work the stubs replace (a sweep's spec is replaced by
+# a missing one). Every option of theirs is drawn, new ones too; a new command is drawn once it is listed here, as
+# the others (train, dataset, budget, track, demo, results) would run real work: `results make` runs benchmarks.
+FUZZED_COMMANDS = ("run", "scene", "scenes", "bench", "sweep")
+UNFUZZED_OPTIONS = ("-h", "--help", "--version", "--spawn")
+# a fixed seed keeps CI deterministic; HVS_FUZZ_EXAMPLES=2000 searches further by hand
+TEXT_VALUES = ["", "x", "nope", "a,b", "-1", "0", "1", "nan", "inf", "1e9", "../x", "/etc/passwd:root", "{OUT}",
+               "{OUT}/f.json", "mod:make", "hybrid", "walk_by", "key=value", "scale=abc", "0,0,0,0,0,0"]
+
+
+def _parsers() -> dict:
+    """The fuzzed commands' parsers, by name, as build_parser makes them."""
+    import argparse
+
+    from hvs_sim.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return {name: p for name, p in sub.choices.items() if name in FUZZED_COMMANDS}
+
+
+def _values(action) -> st.SearchStrategy:
+    """A value (list of words) for an argparse action: its choices, or numbers and text of every kind."""
+    if action.nargs == 0:
+        return st.just([])
+    if action.choices:
+        word = st.sampled_from([*map(str, action.choices), "nope", ""])
+    elif action.type is int:
+        word = st.sampled_from(["0", "1", "3", "-2", "1e3", "x", "2.5", "99999999999"])
+    elif action.type is float:
+        word = st.sampled_from(["0", "0.5", "-1", "nan", "inf", "1e300", "x", ""])
+    else:
+        word = st.sampled_from(TEXT_VALUES)
+    if action.nargs in ("+", "*") or isinstance(action.nargs, int):
+        n = action.nargs if isinstance(action.nargs, int) else None
+        return st.lists(word, min_size=n or (1 if action.nargs == "+" else 0), max_size=n or 3)
+    return word.map(lambda w: [w])
+
+
+@settings(max_examples=int(os.environ.get("HVS_FUZZ_EXAMPLES", "100")), deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(data=st.data())
+def test_cli_argument_vectors_drawn_from_the_parsers(stubs, capsys, monkeypatch, data):
+    """Any argument vector the parsers can be handed: success, or exit 2 with one line saying why; never a traceback.
+    The vectors come from the parsers' own actions, so a new option is fuzzed without being listed here."""
+    import tempfile
+
+    monkeypatch.chdir(stubs)  # defaults such as out/scene land in the test's folder
+    parsers = _parsers()
+    command = data.draw(st.sampled_from(sorted(parsers)), label="command")
+    parser = parsers[command]
+    argv = [command]
+    for action in parser._actions:
+        if not action.option_strings and action.dest != "help":  # positionals, in order
+            argv += data.draw(_values(action), label=action.dest)
+    options = [a for a in parser._actions if a.option_strings and not set(a.option_strings) & set(UNFUZZED_OPTIONS)]
+    for action in data.draw(st.lists(st.sampled_from(options), max_size=4, unique_by=id), label="options"):
+        argv += [action.option_strings[-1], *data.draw(_values(action), label=action.dest)]
+    out = tempfile.mkdtemp(dir=stubs)
+    argv = [w.replace("{OUT}", out) for w in argv]
+    if command == "sweep" and argv[1:2] != ["report"]:
+        argv[1:2] = [str(Path(out) / "missing.toml")]  # a real spec would run real tasks
+    code = main(argv)
+    err = capsys.readouterr().err
+    assert "Traceback" not in err, (argv, err)
+    assert code in (0, 2), (argv, code, err)
+    if code == 2:
+        lines = [line for line in err.splitlines() if "error:" in line]
+        assert len(lines) == 1, (argv, err)  # one line says why (argparse's usage above it is not a second error)
 
 
 def test_run_prints_the_pose_error_over_the_controlled_dofs(stubs, capsys):

@@ -85,24 +85,23 @@ def test_track_refuses_a_fifo_named_like_a_video(tmp_path, capsys):
 
 def test_a_failed_write_names_the_file_and_keeps_the_previous_one(tmp_path, monkeypatch):
     import errno
-    from pathlib import Path
 
+    from hvs_sim import outputs
     from hvs_sim.errors import OutputError
-    from hvs_sim.outputs import write_atomic
+    from hvs_sim.outputs import MANIFEST_NAME, write_atomic
 
     target = tmp_path / "summary.json"
     write_atomic(target, "complete")
-    real = Path.write_text
 
-    def full_disk(self, *a, **k):
-        real(self, "half")
+    def full_disk(path, need_bytes, native=True):  # the output layer's writes meet a full disk
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(Path, "write_text", full_disk)
+    monkeypatch.setattr(outputs, "ensure_space", full_disk)
     with pytest.raises(OutputError, match="summary.json .No space left on device.; the previous complete file is kept"):
         write_atomic(target, "new")
     monkeypatch.undo()
-    assert target.read_text() == "complete" and [p.name for p in tmp_path.iterdir()] == ["summary.json"]
+    assert target.read_text() == "complete"
+    assert sorted(p.name for p in tmp_path.iterdir()) == [MANIFEST_NAME, "summary.json"]
 
 
 def test_track_says_when_a_video_decodes_fewer_frames_than_its_header(tmp_path, capsys):

@@ -10,6 +10,7 @@ import pytest
 import hvs_sim  # noqa: F401  (registers the environment)
 from hvs_sim.errors import HvsError
 from hvs_sim.loop import LoopConfig, ServoLoop, summarize_run
+from hvs_sim.outputs import MANIFEST_NAME
 from hvs_sim.runner import run_episode
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 
@@ -133,7 +134,7 @@ def test_a_recording_that_cannot_be_finished_is_removed_and_the_run_json_says_so
                 rrd=str(rrd), progress=False, json_path=str(tmp_path / "run.json"))
     saved = json.loads((tmp_path / "run.json").read_text())
     assert f"could not finish the rerun recording {rrd}" in saved["recording_error"] and saved["logging_failed"]
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.json", "run_steps.csv"]
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name != MANIFEST_NAME) == ["run.json", "run_steps.csv"]
 
 
 def test_env_checker_passes_without_warnings():

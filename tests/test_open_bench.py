@@ -12,6 +12,7 @@ from hvs_sim.bench.stats import episode_success, mcnemar, median_ci, rate, wilco
 from hvs_sim.bench.suites import SUITES, describe, get_suite
 from hvs_sim.cli import main
 from hvs_sim.errors import ConfigError
+from hvs_sim.outputs import MANIFEST_NAME, record
 from hvs_sim.viz.figures import method_colour
 
 
@@ -153,8 +154,11 @@ def test_bench_compare_pairs_episodes_and_refuses_other_suites(tmp_path, capsys)
     assert row["pose_error_mm"]["p_value"] < 0.05 and row["pose_error_mm"]["median_difference"] < 0
     out = tmp_path / "cmp"
     assert main(["bench", "compare", str(A), str(B), "--out", str(out)]) == 0
-    assert {p.name for p in out.iterdir()} == {"compare.json", "compare.md", "compare.png"}
+    assert {p.name for p in out.iterdir()} == {"compare.json", "compare.md", "compare.png", MANIFEST_NAME}
     assert "McNemar" in capsys.readouterr().out
+    record([A / "summary.json"])  # as the benchmark that wrote it would have: still never removed as an input
+    assert main(["bench", "compare", str(A), str(B), "--out", str(A), "--overwrite"]) == 0
+    assert json.loads((A / "summary.json").read_text())["suite"] == "occlusion-v1" and (A / "compare.md").is_file()
     C = _results(tmp_path / "C", suite="quick", methods=("b",), errors=bad)
     with pytest.raises(ConfigError, match="suite 'occlusion-v1'.*suite 'quick'"):
         compare(A, C)

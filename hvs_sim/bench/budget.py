@@ -424,6 +424,8 @@ def figure(camera: str, path, near_goal_inset_px: int | str | None = NEAR_GOAL_A
     ax.grid(True, which="both", alpha=0.3)
     ax.legend()
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    from hvs_sim.outputs import save_figure
+
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return {str(w): pts for w, pts in curves.items()}

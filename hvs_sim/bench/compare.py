@@ -226,6 +226,8 @@ def compare_figure(result: dict, path: Path) -> Path:
     fig.suptitle(f"{la} (A) against {lb} (B), suite {result['suite']}: episode by episode on the same seeds",
                  fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=FIGURE_DPI)
+    from hvs_sim.outputs import save_figure
+
+    save_figure(fig, path, dpi=FIGURE_DPI)
     plt.close(fig)
     return path

@@ -27,6 +27,7 @@ from hvs_sim.validate import check_number
 
 DATASET_ID = "hvs_sim/servo-expert-v0"  # Minari's namespace/name-version
 DATASET_OBS_MODES = ("features", "image", "image+goal")
+HDF5_OVERHEAD = 2  # the free space a dataset needs, as a multiple of its arrays' bytes (HDF5's own structures)
 START_DRAWS = 20  # candidate start poses per episode, as the servo benchmark's MAX_DRAWS
 
 
@@ -152,6 +153,19 @@ class _Episode:
                    terminations=self.terminations, truncations=self.truncations)
 
 
+def _nbytes(value) -> int:
+    """The bytes of the arrays in an episode buffer (dataclass, dict, list), what the HDF5 file will hold."""
+    if isinstance(value, np.ndarray):
+        return value.nbytes
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        value = vars(value)
+    if isinstance(value, dict):
+        return sum(_nbytes(v) for v in value.values())
+    if isinstance(value, (list, tuple)):
+        return sum(_nbytes(v) for v in value)
+    return 8 if isinstance(value, (int, float, bool, np.generic)) else 0
+
+
 def _write(buffers, env, config: DatasetConfig, out: Path) -> None:
     """Minari writes under MINARI_DATASETS_PATH: a temporary root beside `out`, its dataset renamed into place."""
     import tempfile
@@ -163,6 +177,10 @@ def _write(buffers, env, config: DatasetConfig, out: Path) -> None:
     before = os.environ.get("MINARI_DATASETS_PATH")
     try:
         os.environ["MINARI_DATASETS_PATH"] = str(tmp)
+        from hvs_sim import outputs
+
+        # HDF5 crashes (SIGSEGV) on a disk that fills under it: refuse first, with room for its overhead
+        outputs.ensure_space(tmp / "data.hdf5", HDF5_OVERHEAD * _nbytes(buffers))
         minari.create_dataset_from_buffers(
             dataset_id=config.dataset_id, buffer=buffers, env=env.spec, eval_env=env.spec, algorithm_name="IBVS expert (hvs_sim)",
             description="hvs_sim's gym env driven by six-DOF IBVS on the true corners from the servo benchmark's start "

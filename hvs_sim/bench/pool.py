@@ -279,7 +279,10 @@ def write_frames_csv(results: dict, path: Path, key_columns: tuple[str, str, str
     """frames.csv of a tracking benchmark: one row per (sequence key, method, frame)."""
     import csv
 
-    with open(path, "w", newline="") as f:
+    from hvs_sim.outputs import open_output, settle, temporary_beside
+
+    tmp = temporary_beside(path)
+    with open_output(tmp) as f:
         w = csv.writer(f)
         w.writerow([*key_columns, "method", "frame", "error_px", "occlusion", "mode", "ms", "op_estimate"])
         for key, per in results.items():
@@ -287,3 +290,4 @@ def write_frames_csv(results: dict, path: Path, key_columns: tuple[str, str, str
                 for i in range(len(r["error"])):
                     w.writerow([*key, m, i, f"{r['error'][i]:.4f}", f"{r['occlusion'][i]:.4f}", r["mode"][i],
                                 f"{r['ms'][i]:.2f}", f"{r['occ_est'][i]:.3f}"])
+    settle(tmp, path, keep=True)

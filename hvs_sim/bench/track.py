@@ -168,7 +168,7 @@ def run_track_bench(config: TrackBenchConfig, out: Path, progress: bool = True, 
     from hvs_sim.viz.figures import track_triads
 
     track_triads(results, config, out)
-    (out / "table.md").write_text(track_table(summary))
+    write_atomic(out / "table.md", track_table(summary))
     return summary
 
 

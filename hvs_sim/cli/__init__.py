@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from hvs_sim import outputs
 from hvs_sim.cli.bench import (
     BENCH_OUTPUTS,
     SMOKE_NOTE,
@@ -33,6 +34,7 @@ from hvs_sim.cli.common import (
     _provenance,
     _scenario_from_args,
     _target_overrides,
+    stop_reason,
 )
 from hvs_sim.cli.misc import (
     add_budget_parser,
@@ -79,7 +81,17 @@ def build_parser() -> argparse.ArgumentParser:
 
     from hvs_sim.video import add_track_parser  # here, not at the top: it loads OpenCV and the trackers
     add_track_parser(sub)
+    _no_abbreviations(parser)
     return parser
+
+
+def _no_abbreviations(parser: argparse.ArgumentParser) -> None:
+    """An option must be written in full (`run --roi 5` is not `--roi-inset 5`), in every command's parser."""
+    parser.allow_abbrev = False
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in dict.fromkeys(action.choices.values()):
+                _no_abbreviations(child)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -100,16 +112,31 @@ def main(argv: list[str] | None = None) -> int:
     handle = threading.current_thread() is threading.main_thread()  # signal handlers live in the main thread
     previous = signal.signal(signal.SIGTERM, _on_sigterm) if handle else None
     _SIGTERM_SEEN.clear()
+    outputs.begin_command()
     try:
         code = args.func(args)
-    except HvsError as exc:
+    except HvsError as exc:  # an OutputError (a full disk) too: the partial temporaries go, complete outputs stay
+        outputs.discard_pending()
         print(f"hvs-sim: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:
+        if not outputs.is_output_failure(exc):
+            raise
+        outputs.discard_pending()  # a writer the layer does not wrap: still no traceback and no partial file
+        print(f"hvs-sim: error: {outputs.shown_name(exc.filename) or 'a file'}: {exc.strerror or exc}; "
+              f"{outputs.complete_note()}", file=sys.stderr)
+        return 2
+    except SystemExit as exc:  # user code (a plugin) called sys.exit: not a result, say so
+        outputs.discard_pending()
+        print(f"hvs-sim: error: user code called sys.exit({exc.code!r}) while `hvs-sim {args.command}` ran; it "
+              "was stopped there (a plugin must return or raise, not exit)", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
-        print(f"hvs-sim: {'terminated (SIGTERM)' if _SIGTERM_SEEN else 'interrupted (Ctrl-C)'}: stopped; what was "
+        print(f"hvs-sim: {stop_reason()}: stopped; what was "
               "finished is kept, and summaries written so far say interrupted", file=sys.stderr)
         code = EXIT_SIGINT
     finally:
+        outputs.end_command()
         if handle:
             signal.signal(signal.SIGTERM, previous)
     return EXIT_SIGTERM if _SIGTERM_SEEN and code == EXIT_SIGINT else code

@@ -231,7 +231,7 @@ def cmd_bench_compare(args) -> int:
                               f"{len(args.methods)}")
         pair = {"methods_a": args.methods[:1], "methods_b": args.methods[1:]}
     result = compare(*args.paths, **pair)  # checked and computed before --out is cleared
-    out = fresh_out_dir(args.out, args.overwrite, ("compare.json", "compare.md", "compare.png"))
+    out = fresh_out_dir(args.out, args.overwrite, ("compare.json", "compare.md", "compare.png"), inputs=args.paths)
     table = compare_table(result)
     write_atomic(out / "compare.json", json.dumps(result, indent=2))
     write_atomic(out / "compare.md", table)

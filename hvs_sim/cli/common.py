@@ -151,6 +151,11 @@ class Terminated(KeyboardInterrupt):
 _SIGTERM_SEEN = []  # set by the handler: a command may catch the interrupt itself and return 130
 
 
+def stop_reason() -> str:
+    """How the user stopped the command, for its message: SIGTERM is named as SIGTERM, not as a Ctrl-C."""
+    return "terminated (SIGTERM)" if _SIGTERM_SEEN else "interrupted (Ctrl-C)"
+
+
 def _on_sigterm(signum, frame):
     _SIGTERM_SEEN.append(signum)
     raise Terminated()

@@ -7,13 +7,15 @@ import json
 import sys
 from pathlib import Path
 
-from hvs_sim.cli.common import HelpFormatter, _target_overrides
+from hvs_sim.cli.common import HelpFormatter, _target_overrides, stop_reason
 from hvs_sim.cli.run import cmd_run
 from hvs_sim.cliargs import DEFAULT_TRACKER, near_goal_inset
 from hvs_sim.errors import ConfigError
-from hvs_sim.outputs import fresh_out_dir, prepare_out_dir, write_atomic
+from hvs_sim.outputs import MANIFEST_NAME, fresh_out_dir, prepare_out_dir, write_atomic
 from hvs_sim.scene.arms import DEFAULT_ARM
 
+DEMO_OUTPUTS = ("run.json", "run_steps.csv", "run.rrd", "frames.png", "error.png")  # what `hvs-sim demo` writes
+BUDGET_OUTPUTS = ("budget.json", "budget.md", "budget.png")
 BUDGET_EPISODES = 3  # `hvs-sim budget`'s closed-loop episodes per camera: a handful, to set beside the prediction
 
 
@@ -45,9 +47,15 @@ def cmd_budget(args) -> int:
     args.episodes = BUDGET_EPISODES if args.episodes is None else args.episodes
     if args.episodes < 0:
         raise ConfigError(f"--episodes must be 0 or more, got {args.episodes}")
+    from hvs_sim.outputs import check_apart, check_replaceable
+
     out = Path(args.out)
-    if out.is_dir() and any(out.iterdir()) and not args.overwrite:  # said now, not after minutes of episodes
-        fresh_out_dir(out, False, ())
+    files = {f"--out's {name}": out / name for name in BUDGET_OUTPUTS}
+    inputs = [args.target_image] if args.target_image else []
+    check_apart(inputs, files)  # an input named like an output is never replaced, nor removed by --overwrite
+    check_replaceable(files, overwrite=True, root=out)
+    if out.is_dir() and any(p.name != MANIFEST_NAME for p in out.iterdir()) and not args.overwrite:
+        fresh_out_dir(out, False, ())  # said now, not after minutes of episodes
     scene = _target_overrides(args)
     if args.arm is not None:
         scene["arm"] = args.arm
@@ -62,7 +70,7 @@ def cmd_budget(args) -> int:
                   + (f", then {args.episodes} servo episodes" if args.episodes else ""), file=sys.stderr, flush=True)
             done.append(b.estimate(row, args.episodes, progress, **scene))
         rows = done
-    out = fresh_out_dir(args.out, args.overwrite, ("budget.json", "budget.md", "budget.png"))
+    out = fresh_out_dir(args.out, args.overwrite, BUDGET_OUTPUTS, inputs=inputs)
     text = ("The pose bound (translation / rotation, 1-σ) on the template the loop tracks at the goal (template "
             "px; its inset, negative where the loop switches to a template grown beyond the target's outline):\n\n"
             + b.table(rows))
@@ -96,7 +104,7 @@ def cmd_dataset(args) -> int:
         if not exc.args:
             raise
         summary, code = exc.args[0], 130
-        print(f"hvs-sim: interrupted: the {summary['episodes']} finished episodes were written", file=sys.stderr)
+        print(f"hvs-sim: {stop_reason()}: the {summary['episodes']} finished episodes were written", file=sys.stderr)
     print(f"{summary['episodes']} episodes, {summary['steps']} steps, expert success {summary['success_rate']:.0%}; "
           f"start poses drawn again {sum(summary['start_draws']) - summary['episodes']} times (out of reach or view)")
     print(f"dataset: {summary['path']}\nread it: MINARI_DATASETS_PATH={args.out} python -c \"import minari; "
@@ -106,12 +114,19 @@ def cmd_dataset(args) -> int:
 
 def cmd_demo(args) -> int:
     from hvs_sim.cli import build_parser  # the package's: it gathers every command module, this one included
+    from hvs_sim.outputs import check_replaceable
 
     parser = build_parser()
-    out = Path(args.out)
-    return cmd_run(parser.parse_args(["run", "--scenario", "walk_by", "--tracker", DEFAULT_TRACKER, "--seed", "0",
-                                      "--steps", "240", "--json", str(out / "run.json"), "--rrd", str(out / "run.rrd"),
-                                      "--figures", str(out)]))
+    out = prepare_out_dir(args.out)
+    run_args = parser.parse_args(["run", "--scenario", "walk_by", "--tracker", DEFAULT_TRACKER, "--seed", "0",
+                                  "--steps", "240", "--json", str(out / "run.json"), "--rrd", str(out / "run.rrd"),
+                                  "--figures", str(out)])
+    # every file of the demo is one the user did not name: an earlier demo's are replaced, anything else needs
+    # --overwrite
+    check_replaceable({f"--out's {name}": out / name for name in DEMO_OUTPUTS}, overwrite=args.overwrite, root=out,
+                      hint=" or pass --overwrite")
+    run_args.overwrite = args.overwrite
+    return cmd_run(run_args)
 
 
 def add_train_parser(sub) -> None:
@@ -156,6 +171,8 @@ def add_budget_parser(sub) -> None:
 def add_demo_parser(sub) -> None:
     p = sub.add_parser("demo", formatter_class=HelpFormatter, help="the README's demo on built-in defaults (headless, offline)")
     p.add_argument("--out", default="out/demo", help="folder for run.json, run.rrd and the figures")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace files of those names that an earlier hvs-sim did not write (its own are replaced)")
     p.set_defaults(func=cmd_demo)
 
 

@@ -24,6 +24,9 @@ def cmd_run(args) -> int:
     from hvs_sim.outputs import check_apart
     from hvs_sim.runner import steps_csv_path
 
+    for flag in ("json", "rrd", "mcap", "figures"):
+        if getattr(args, flag) is not None and not str(getattr(args, flag)).strip():
+            raise ConfigError(f"--{flag} is empty; give a {'folder' if flag in ('mcap', 'figures') else 'file name'}")
     if args.mcap and Path(args.mcap).exists():
         raise ConfigError(f"--mcap {args.mcap} exists: a ROS 2 bag is a new folder; give a path that does not exist")
     check_apart([p for p in (args.target_image, args.wall_images) if p],
@@ -33,6 +36,7 @@ def cmd_run(args) -> int:
                     for name in ("frames.png", "error.png")}})
     for flag, path in (("--json", args.json), ("--rrd", args.rrd)):
         check_output_file(path, flag)
+    check_sidecars(args, getattr(args, "overwrite", False))
     if args.spawn:
         _check_viewer()
     if args.figures:
@@ -84,6 +88,23 @@ def cmd_run(args) -> int:
         viewer = "rerun" if shutil.which("rerun") else str(Path(sys.executable).parent / "rerun")
         print(f"recording: {args.rrd}  (open it with: {viewer} {args.rrd})")
     return 0
+
+
+def check_sidecars(args, overwrite: bool) -> None:
+    """The files run writes that the user did not name (the steps CSV beside --json, the figures in --figures) may
+    replace only what hvs_sim wrote there; none of its outputs is written through a symbolic link."""
+    from hvs_sim.outputs import check_name_length, check_replaceable
+    from hvs_sim.runner import steps_csv_path
+
+    named = {"--json": args.json and Path(args.json), "--rrd": args.rrd and Path(args.rrd)}
+    sidecars = {"--json's steps CSV": args.json and steps_csv_path(args.json),
+                **{f"--figures' {name}": args.figures and Path(args.figures) / name for name in ("frames.png", "error.png")}}
+    if args.json:
+        check_name_length(steps_csv_path(args.json), "--json's steps CSV")
+    check_replaceable(named, overwrite=True)  # the user named them: replaced, but not through a link
+    check_replaceable(sidecars, overwrite=overwrite, root=args.figures or None,
+                      hint=(" or pass --overwrite" if hasattr(args, "overwrite") else ", or give another --json / "
+                            "--figures"))
 
 
 def parse_start_offset(text: str) -> tuple[float, ...]:

@@ -7,10 +7,11 @@ import json
 from pathlib import Path
 
 from hvs_sim.cli.common import HelpFormatter, _add_scene_args, _scenario_from_args
-from hvs_sim.errors import ConfigError, OutputError
-from hvs_sim.outputs import fresh_out_dir
+from hvs_sim.errors import ConfigError
+from hvs_sim.outputs import fresh_out_dir, write_image
 
 SCENE_OUTPUTS = ("frames.mp4", "frames/*.png", "ground_truth.csv", "ground_truth.npz", "scenario.json", "preview.png")
+MAX_SCENE_FRAMES = 36_000  # 20 minutes at 30 fps: --frames above it is refused (a typo, or a disk filled for hours)
 
 
 def cmd_scene(args) -> int:
@@ -19,25 +20,50 @@ def cmd_scene(args) -> int:
 
     from hvs_sim.render.sequence import iterate_sequence
 
-    if args.frames is not None and args.frames < 1:
-        raise ConfigError(f"--frames must be >= 1, got {args.frames}")
-    from hvs_sim.outputs import check_apart
-
-    check_apart([p for p in (args.target_image, args.wall_images) if p], {"--out": Path(args.out) / "scenario.json"})
-    if args.mcap and Path(args.mcap).exists():
-        raise ConfigError(f"--mcap {args.mcap} exists: a ROS 2 bag is a new folder; give a path that does not exist")
+    if args.frames is not None and not 1 <= args.frames <= MAX_SCENE_FRAMES:
+        raise ConfigError(f"--frames must be from 1 to {MAX_SCENE_FRAMES} ({MAX_SCENE_FRAMES // 1800} minutes at 30 "
+                          f"fps), got {args.frames}")
     scenario = _scenario_from_args(args)
-    out = fresh_out_dir(args.out, args.overwrite, SCENE_OUTPUTS)
+    inputs = _check_scene_outputs(args, scenario.n_frames if args.frames is None else args.frames)
+    if args.target_image:  # a damaged image is refused before --out is made
+        from hvs_sim.scene.images import load_image
+
+        load_image(args.target_image, "target image")
+    out = fresh_out_dir(args.out, args.overwrite, SCENE_OUTPUTS, inputs=inputs)
     meta = _write(scenario, out, args)
     # a preview: the first frame with the ground-truth outline and centre
     frame, gt = next(iterate_sequence(scenario, 1))
     bgr = cv2.cvtColor(frame, cv2.COLOR_RGB2BGR)
     cv2.polylines(bgr, [np.round(gt.corners * 16).astype(np.int32)], True, (0, 255, 0), 1, cv2.LINE_AA, shift=4)
     cv2.drawMarker(bgr, tuple(np.round(gt.center).astype(int)), (0, 255, 0), cv2.MARKER_CROSS, 12, 1)
-    if not cv2.imwrite(str(out / "preview.png"), bgr):
-        raise OutputError(f"could not write {out / 'preview.png'} (disk full or folder not writable)")
+    write_image(out / "preview.png", bgr)
     print(json.dumps({"out": str(out), "frames": meta["frames"], "peak_occlusion": round(meta["peak_occlusion"], 3)}))
     return 0
+
+
+def _check_scene_outputs(args, frames: int) -> list[str]:
+    """Every file scene writes, checked before the render: none is an input or in an input folder (--target-image,
+    --wall-images), none is written through a link, and --mcap is a new folder outside --out's files. Returns the
+    inputs, which --overwrite never removes."""
+    from hvs_sim.outputs import check_apart, check_replaceable
+
+    inputs = [p for p in (args.target_image, args.wall_images) if p]
+    out = Path(args.out)
+    if str(args.out).strip() == "":
+        raise ConfigError("--out is empty; give a folder (it is created when missing)")
+    files = {f"--out's {name}": out / name for name in ("scenario.json", "ground_truth.csv", "ground_truth.npz",
+                                                          "preview.png")}
+    if args.format == "mp4":
+        files["--out's frames.mp4"] = out / "frames.mp4"
+    else:
+        files.update({f"--out's frames/{i:05d}.png": out / "frames" / f"{i:05d}.png" for i in (0, frames - 1)})
+    if args.mcap:
+        if Path(args.mcap).exists() or Path(args.mcap).is_symlink():
+            raise ConfigError(f"--mcap {args.mcap} exists: a ROS 2 bag is a new folder; give a path that does not exist")
+        files["--mcap"] = Path(args.mcap)
+    check_apart(inputs, files)
+    check_replaceable(files, overwrite=True, root=out)  # a link among them is refused; --overwrite is checked later
+    return inputs
 
 
 def _write(scenario, out: Path, args) -> dict:

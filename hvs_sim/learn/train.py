@@ -17,7 +17,7 @@ import torch
 from torch import nn
 
 from hvs_sim.errors import ConfigError
-from hvs_sim.outputs import write_atomic
+from hvs_sim.outputs import write_atomic, write_with
 from hvs_sim.paths import WEIGHTS_DIR
 
 # what the residual regressor's training frames are, written beside its weights (see learn/data.py, augment.py)
@@ -129,7 +129,7 @@ def train_residual(config: ResidualTrainConfig = ResidualTrainConfig(), out_dir:
     val_mse, val_base, kinds = evaluate(val_idx)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    torch.save(net.state_dict(), out_dir / "residual.pt")
+    write_with(out_dir / "residual.pt", lambda tmp: torch.save(net.state_dict(), tmp))
     meta = {"network": "ResidualRegressor (paper Fig. 4)", "config": asdict(config),
             "train_sequences": len(train_idx), "val_sequences": len(val_idx),
             "train_samples": int(sum(len(groups[i]["kind"]) for i in train_idx)),
@@ -197,7 +197,7 @@ def train_gru(config: GRUTrainConfig = GRUTrainConfig(), out_dir: Path = WEIGHTS
         return {f"{h}_frames": float(err[:, h - 1].mean()) for h in sorted({1, 5, 10, config.horizon}) if h <= config.horizon}
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    torch.save(net.state_dict(), out_dir / "gru.pt")
+    write_with(out_dir / "gru.pt", lambda tmp: torch.save(net.state_dict(), tmp))
     meta = {"network": "GRUPredictor (paper Fig. 5): 2-layer GRU, hidden 16, FC 16->2", "config": asdict(config),
             "unit_px": UNIT_PX, "train_windows": len(Xt), "val_windows": len(Xv),
             "val_position_error_px_after": {"gru": at(gru_err), "constant_velocity": at(cv_err), "hold": at(hold_err)},

@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 
 from hvs_sim.errors import OutputError
-from hvs_sim.outputs import settle, temporary_beside, write_atomic
+from hvs_sim.outputs import record, settle, temporary_beside, write_atomic, write_image, write_with
 from hvs_sim.render.renderer import GroundTruth, Renderer
 from hvs_sim.scene.scenarios import Scenario
 from hvs_sim.scene.world import Scene
@@ -71,15 +71,21 @@ def write_sequence(scenario: Scenario, out_dir: Path, fmt: str = "mp4", n_frames
         from hvs_sim.videoio import Mp4Writer
 
         video_tmp = temporary_beside(out_dir / "frames.mp4")  # renamed into place once every frame is in it
-        writer = Mp4Writer(video_tmp, scenario.fps, (cam.width, cam.height))
+        writer = Mp4Writer(video_tmp, scenario.fps, (cam.width, cam.height), shown=out_dir / "frames.mp4")
     else:
         (out_dir / "frames").mkdir(exist_ok=True)
     rows, cams, joints, corners = [], [], [], []
-    done = False
+    done = interrupted = False
     try:
         _render_frames(scenario, total, progress, writer, out_dir, rows, cams, joints, corners, on_frame, on_start)
         done = True
+    except KeyboardInterrupt:  # Ctrl-C or SIGTERM: the frames rendered so far are kept, with their ground truth
+        if not rows:
+            raise
+        done = interrupted = True
     finally:
+        if writer is None:  # the PNGs written whole, in one manifest update rather than one a frame
+            record(out_dir / "frames" / f"{i:05d}.png" for i in range(len(rows)))
         if writer is not None:
             closed = False
             try:
@@ -88,9 +94,11 @@ def write_sequence(scenario: Scenario, out_dir: Path, fmt: str = "mp4", n_frames
             finally:  # a video whose render or close failed is removed, never renamed into place
                 settle(video_tmp, out_dir / "frames.mp4", keep=done and closed)
     _write_ground_truth(scenario, out_dir, rows, cams, joints, corners)
-    meta = {"scenario": _json_safe(asdict(scenario)), "frames": total, "format": fmt,
-            "peak_occlusion": float(max(r["occlusion"] for r in rows))}
+    meta = {"scenario": _json_safe(asdict(scenario)), "frames": len(rows), "format": fmt,
+            "peak_occlusion": float(max(r["occlusion"] for r in rows)), "interrupted": interrupted}
     write_atomic(out_dir / "scenario.json", json.dumps(meta, indent=2, allow_nan=False))
+    if interrupted:
+        raise KeyboardInterrupt
     return meta
 
 
@@ -103,11 +111,12 @@ def _render_frames(scenario, total, progress, writer, out_dir, rows, cams, joint
         if writer is not None:
             writer.write(frame)
         else:
-            bgr = cv2.cvtColor(frame, cv2.COLOR_RGB2BGR)
             path = out_dir / "frames" / f"{gt.frame:05d}.png"
-            if not cv2.imwrite(str(path), bgr):  # a full disk, a folder gone: never report frames not written
-                raise OutputError(f"could not write frame {path} (disk full or folder not writable); frames up to "
-                                  f"{gt.frame - 1} are written")
+            try:  # whole or not at all: a frame the disk could not hold is not left truncated
+                write_image(path, cv2.cvtColor(frame, cv2.COLOR_RGB2BGR), recorded=True)
+            except OutputError as exc:
+                raise OutputError(f"{exc}; frames 0 to {gt.frame - 1} are written whole" if gt.frame else str(exc)) \
+                    from None
         if on_frame is not None:
             on_frame(frame, gt)
         rows.append(gt.as_row())
@@ -125,15 +134,9 @@ def _write_ground_truth(scenario, out_dir, rows, cams, joints, corners) -> None:
         w.writeheader()
         w.writerows(rows)
         write_atomic(out_dir / "ground_truth.csv", f.getvalue())
-    npz_tmp = temporary_beside(out_dir / "ground_truth.npz")
-    done = False
-    try:
-        np.savez_compressed(
-            npz_tmp, time=np.array([r["time"] for r in rows]),
+    write_with(out_dir / "ground_truth.npz", lambda tmp: np.savez_compressed(
+            tmp, time=np.array([r["time"] for r in rows]),
             center=np.array([[r["cx"], r["cy"]] for r in rows]), corners=np.array(corners),
             occlusion=np.array([r["occlusion"] for r in rows]), camera_pose=np.array(cams),
             joint_positions=np.array(joints), K=Renderer.intrinsics_of(scenario),
-            distortion=np.array(scenario.camera.sensor.distortion))
-        done = True
-    finally:
-        settle(npz_tmp, out_dir / "ground_truth.npz", keep=done)
+            distortion=np.array(scenario.camera.sensor.distortion)))

@@ -209,7 +209,9 @@ def write_flags(directory: Path | None = None) -> list[Path]:
     for name in FLAG_NAMES:
         path = flag_path(name, directory)
         path.parent.mkdir(parents=True, exist_ok=True)
-        cv2.imwrite(str(path), cv2.cvtColor(draw_flag(name), cv2.COLOR_RGB2BGR))
+        from hvs_sim.outputs import write_image
+
+        write_image(path, cv2.cvtColor(draw_flag(name), cv2.COLOR_RGB2BGR))
         paths.append(path)
     return paths
 

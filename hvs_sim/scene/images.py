@@ -36,11 +36,12 @@ def _note_once(what: str, message: str, full: int) -> None:
         logging.getLogger(__name__).warning("note: %s", message)
 
 
-def read_rgb(path: str | Path, what: str = "image") -> np.ndarray:
+def read_rgb(path: str | Path, what: str = "image", whole: bool = False) -> np.ndarray:
     """H×W×3 uint8 RGB of an image file, read safely: a regular file only (not a FIFO or device), its size checked
     from the header before decoding (MAX_IMAGE_PIXELS), EXIF orientation applied, 16-bit images scaled by the
     range their values use (16-, 12- or 8-bit data in a 16-bit file), alpha composited over ALPHA_BACKGROUND.
-    InputError saying what was wrong otherwise."""
+    `whole`: decode it once more to prove it is complete (OpenCV fills a truncated JPEG with grey and goes on), for
+    an image read once (a target), not a video's every frame. InputError saying what was wrong otherwise."""
     import warnings
 
     from PIL import Image
@@ -65,6 +66,8 @@ def read_rgb(path: str | Path, what: str = "image") -> np.ndarray:
                          "header); give a smaller image") from None
     except Exception:  # noqa: BLE001 - a format PIL does not know: OpenCV's verdict below, its size checked after
         w = h = None
+    if whole and w is not None:
+        _check_whole(p, what)
     if w is not None and w * h > MAX_IMAGE_PIXELS:
         raise InputError(f"{what} {str(p)!r} is {w}×{h} px by its header, over the {MAX_IMAGE_PIXELS:,} pixels "
                          "accepted; give a smaller image")
@@ -92,13 +95,26 @@ def read_rgb(path: str | Path, what: str = "image") -> np.ndarray:
     return rgb
 
 
+def _check_whole(p: Path, what: str) -> None:
+    """Decode the image with PIL, which (unlike OpenCV) refuses a file cut short."""
+    from PIL import Image, ImageFile
+
+    if ImageFile.LOAD_TRUNCATED_IMAGES:  # a setting of the process: then PIL cannot tell either
+        return
+    try:
+        with Image.open(p) as im:
+            im.load()
+    except (OSError, SyntaxError, ValueError) as exc:
+        raise InputError(f"{what} {str(p)!r} is truncated or damaged ({exc}); give the complete file") from None
+
+
 def load_image(path: str | Path, what: str = "image", max_aspect: float | None = None) -> np.ndarray:
     """H×W×3 uint8 RGB from a PNG/JPEG/... file, shrunk to MAX_SIDE_PX; clear errors for bad files.
 
     max_aspect: refuse images longer than this many times their width, or the other way round.
     """
     p = Path(path)
-    img = read_rgb(p, what)
+    img = read_rgb(p, what, whole=True)
     h, w = img.shape[:2]
     if max_aspect is not None and max(h, w) > max_aspect * min(h, w):
         raise InputError(f"{what} {str(p)!r} is {w}×{h} px: accepted aspect ratios are 1:{max_aspect:g} to {max_aspect:g}:1")

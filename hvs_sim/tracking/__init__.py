@@ -40,9 +40,31 @@ def _lk_from_dict(name: str, config: dict, base) -> dict:
 NESTED_SETTINGS = ("lk", "background_config")  # config fields that are configs themselves, accepted as dicts
 
 
+def _check_types(name: str, config: dict, classes) -> None:
+    """A setting whose default is a number must be given a number (`--set scale=abc` is text): said by name here,
+    not as a TypeError where the config compares it."""
+    import numbers
+    from dataclasses import MISSING
+
+    defaults = {f.name: f.default for cls in classes for f in fields(cls) if f.default is not MISSING}
+    for key, value in config.items():
+        default = defaults.get(key)
+        if isinstance(default, numbers.Real) and not isinstance(default, bool) and default is not None and (
+                not isinstance(value, numbers.Real) or isinstance(value, bool)):
+            raise ConfigError(f"{name}: {key} must be a number (like its default {default!r}), got {value!r}")
+
+
 def _builder(name: str, config: dict):
     """The checked configuration of tracker `name` with `config` overriding its settings, as a function
     that builds the tracker (the checks are cheap; building loads weights)."""
+    try:
+        return _checked_builder(name, config)
+    except TypeError as exc:  # a value of a type the config cannot compare: a clear error, not a traceback
+        raise ConfigError(f"{name}: a setting has a value of the wrong type ({exc}); give numbers as numbers "
+                          "(--set scale=0.5), flags as true/false") from None
+
+
+def _checked_builder(name: str, config: dict):
     spec: TrackerSpec | None = TRACKERS.get(name)
     if spec is None:
         raise choice_error("tracker", name, TRACKER_NAMES)
@@ -52,6 +74,11 @@ def _builder(name: str, config: dict):
         if dicts and isinstance(merged[key], dict):
             merged[key] = {k: v for d in dicts for k, v in d.items()}
     config = merged
+    if spec.base in ("deep_lk", "hybrid"):
+        from hvs_sim.tracking.deep_lk import DeepLKConfig
+        from hvs_sim.tracking.hybrid import HybridConfig
+
+        _check_types(name, config, (DeepLKConfig, HybridConfig) if spec.base == "hybrid" else (DeepLKConfig,))
     if spec.base == "deep_lk":
         from hvs_sim.tracking.deep_lk import DeepLKConfig, DeepLKTracker
 

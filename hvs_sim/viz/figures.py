@@ -10,6 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from hvs_sim.outputs import save_figure, write_image
 from hvs_sim.tracking.registry import TRACKERS
 
 # one colour per tracker name, from the registry (distinct across methods and variants)
@@ -81,7 +82,7 @@ def track_triads(results: dict, config, out: Path) -> list[Path]:
         fig.suptitle(f"{scen}: CDF of e_xy | e_xy over time, occlusion shaded | e_xy vs occlusion")
         fig.tight_layout()
         p = Path(out) / f"fig7_{scen}.png"
-        fig.savefig(p, dpi=90)
+        save_figure(fig, p, dpi=90)
         plt.close(fig)
         paths.append(p)
     return paths
@@ -141,7 +142,7 @@ def servo_figure(episodes: dict, out: Path, title: str) -> Path:
     fig.suptitle(title)
     fig.tight_layout()
     p = Path(out)
-    fig.savefig(p, dpi=90)
+    save_figure(fig, p, dpi=90)
     plt.close(fig)
     return p
 
@@ -169,13 +170,11 @@ def run_figures(picks: list, series: dict, summary: dict, out: Path, converge_px
     """Beside a closed-loop run: `frames.png` (the four picked records with their frames: start, occlusion
     rising, peak occlusion, end (runner.FramePicks), with the tracked / true / desired outlines) and
     `error.png` (errors over time from RunStats.series, predicted steps and true occlusion shaded)."""
-    import cv2
-
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     tiles = [_overlay(r) for r in picks]
     frames = out / "frames.png"
-    cv2.imwrite(str(frames), np.vstack([np.hstack(tiles[:2]), np.hstack(tiles[2:])]))
+    write_image(frames, np.vstack([np.hstack(tiles[:2]), np.hstack(tiles[2:])]))
     t, occ = series["time"], np.nan_to_num(series["occlusion"])
     fig, (ax, pax) = plt.subplots(2, 1, figsize=(9, 6.4), sharex=True, height_ratios=(3, 2))
     ax.semilogy(t, np.maximum(series["error_px"], 1e-3), color="tab:red", label="ground-truth error to s* (px)")
@@ -206,6 +205,8 @@ def run_figures(picks: list, series: dict, summary: dict, out: Path, converge_px
                  + ("" if summary.get("held_to_end", True) else f" ({summary['not_converged_because']})"), fontsize=9)
     fig.tight_layout()
     error = out / "error.png"
-    fig.savefig(error, dpi=100)
-    plt.close(fig)
+    try:
+        save_figure(fig, error, dpi=100)
+    finally:
+        plt.close(fig)
     return [frames, error]

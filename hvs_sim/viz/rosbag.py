@@ -92,7 +92,16 @@ class _Bag:
         self.count = dict.fromkeys(topics, 0)
 
     def _write(self, topic: str, msg, ns: int) -> None:
-        self.writer.write(self.conn[topic], ns, self.store.serialize_cdr(msg, self.topics[topic]))
+        from hvs_sim import outputs
+
+        data = self.store.serialize_cdr(msg, self.topics[topic])
+        try:
+            outputs.ensure_space(self.path / "bag.mcap", len(data), native=False)
+            self.writer.write(self.conn[topic], ns, data)
+        except OSError as exc:  # a full disk: the bag is named by the folder the user gave
+            if isinstance(exc, outputs.OutputError):
+                raise
+            raise outputs.output_error(self.path.with_name(self.name or self.path.name), exc) from None
         self.count[topic] += 1
 
     def _header(self, seconds: float, frame: str):
@@ -138,7 +147,12 @@ class _Bag:
             velocity=np.zeros(0) if qdot is None else np.asarray(qdot, float), effort=np.zeros(0))
 
     def close(self) -> None:
-        self.writer.close()
+        from hvs_sim import outputs
+
+        try:
+            self.writer.close()
+        except OSError as exc:
+            raise outputs.output_error(self.path.with_name(self.name or self.path.name), exc) from None
         if self.name and self.name != self.path.name:
             old, new = f"{self.path.name}.mcap", f"{self.name}.mcap"
             (self.path / old).rename(self.path / new)

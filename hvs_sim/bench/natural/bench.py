@@ -16,7 +16,7 @@ from hvs_sim.bench.natural.sources import ALL_KINDS, DEFAULT_SEEDS, NATURAL_KIND
 from hvs_sim.bench.pool import collect_jobs, config_json, write_frames_csv
 from hvs_sim.camera_model import REALISTIC_PRESET, sensor_preset
 from hvs_sim.errors import ConfigError, choice_error
-from hvs_sim.outputs import write_atomic
+from hvs_sim.outputs import save_figure, write_atomic
 
 # ---------------------------------------------------------------------------------------------------------------------
 # The benchmark
@@ -135,7 +135,7 @@ def run_natural_bench(config: NaturalBenchConfig, out: Path, progress: bool = Tr
                              "frames_per_sequence": config.frames}
     write_atomic(out / "summary.json", json.dumps(summary, indent=2))
     write_frames_csv(results, out / "frames.csv", ("source", "kind", "seed"))
-    (out / "table.md").write_text(natural_table(summary))
+    write_atomic(out / "table.md", natural_table(summary))
     natural_figures(results, metas, config, out)
     return summary
 
@@ -242,7 +242,7 @@ def natural_figures(results: dict, metas: dict, config: NaturalBenchConfig, out:
     fig.suptitle(f"Natural imagery ({config.camera}): CDF of the tracking error")
     fig.tight_layout()
     p1 = Path(out) / "fig_natural.png"
-    fig.savefig(p1, dpi=90)
+    save_figure(fig, p1, dpi=90)
     plt.close(fig)
 
     keys = _sheet_keys(list(results), SHEET_SEQUENCES)
@@ -259,7 +259,7 @@ def natural_figures(results: dict, metas: dict, config: NaturalBenchConfig, out:
             a.axis("off")
     fig.tight_layout()
     p2 = Path(out) / "sequences.png"
-    fig.savefig(p2, dpi=80)
+    save_figure(fig, p2, dpi=80)
     plt.close(fig)
     return [p1, p2]
 

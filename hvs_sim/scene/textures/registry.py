@@ -128,5 +128,7 @@ def write_contact_sheet(path, names=None, seeds=(0, 1), size: int = 256) -> Path
     sheet = np.concatenate(rows, 0)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    cv2.imwrite(str(path), cv2.cvtColor(sheet, cv2.COLOR_RGB2BGR))
+    from hvs_sim.outputs import write_image
+
+    write_image(path, cv2.cvtColor(sheet, cv2.COLOR_RGB2BGR))
     return path

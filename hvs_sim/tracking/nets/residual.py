@@ -40,13 +40,20 @@ class ResidualRegressor(nn.Module):
 
 def load_module(module: nn.Module, path: Path, what: str) -> dict:
     """Load a state dict into `module`, checking that the file exists and every shape matches."""
+    from hvs_sim.validate import check_regular_file
+
     path = Path(path)
-    if not path.exists():
+    if not path.exists() and not path.is_symlink():
         raise WeightsError(f"{what} weights not found at {path}; train them with `hvs-sim train {what}`")
+    check_regular_file(path, f"{what} weights", WeightsError)  # a FIFO would block the read forever
     try:
-        state = torch.load(path, map_location="cpu", weights_only=True)
+        state = torch.load(path, map_location="cpu", weights_only=True)  # weights_only: no pickled code runs
     except Exception as exc:  # noqa: BLE001 - torch raises many kinds for a corrupt file; all mean the same here
-        raise WeightsError(f"{path} is not a readable torch weights file: {exc}") from None
+        first = str(exc).splitlines()[0] if str(exc) else ""
+        raise WeightsError(f"{path} is not a readable torch weights file ({type(exc).__name__}: {first}); only "
+                           "tensors are loaded, pickled objects are refused") from None
+    if not isinstance(state, dict) or not all(hasattr(v, "shape") for v in state.values()):
+        raise WeightsError(f"{path} does not hold a state dict of tensors; it does not hold {what} weights")
     expected = module.state_dict()
     missing = sorted(set(expected) - set(state))
     if missing:

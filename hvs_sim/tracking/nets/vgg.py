@@ -106,20 +106,34 @@ class VGG16Pool2(nn.Module):
 
 def load_weights(path: Path | str | None = None) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]], str]:
     """Read conv1_1…conv2_2 from our .npz (Keras flavour) or torchvision's vgg16-397923af.pth."""
+    from hvs_sim.validate import check_regular_file
+
     path = Path(path) if path is not None else VGG_NPZ
-    if not path.exists():
+    if not path.exists() and not path.is_symlink():
         raise WeightsError(f"VGG-16 weights not found at {path}; run `python experiments/extract_vgg16_weights.py` "
                            "or pass the path of torchvision's vgg16-397923af.pth")
+    check_regular_file(path, "VGG-16 weights", WeightsError)  # a FIFO would block the read forever
     weights: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     if path.suffix == ".npz":
-        data = np.load(path)
         flavour = "keras"
-        for name in LAYERS:
-            if f"{name}_w" not in data or f"{name}_b" not in data:
-                raise WeightsError(f"{path} lacks {name}_w/{name}_b; it is not an hvs_sim VGG-16 weights file")
-            weights[name] = (data[f"{name}_w"], data[f"{name}_b"])
+        try:
+            data = np.load(path)  # allow_pickle=False: an object array (a pickle) is refused, never run
+            for name in LAYERS:
+                if f"{name}_w" not in data or f"{name}_b" not in data:
+                    raise WeightsError(f"{path} lacks {name}_w/{name}_b; it is not an hvs_sim VGG-16 weights file")
+                weights[name] = (data[f"{name}_w"], data[f"{name}_b"])
+        except WeightsError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - numpy raises many kinds for a damaged or hostile file
+            raise WeightsError(f"{path} is not a readable .npz of plain arrays ({type(exc).__name__}: {exc}); "
+                               "object arrays (pickles) are refused") from None
     elif path.suffix in (".pth", ".pt"):
-        state = torch.load(path, map_location="cpu", weights_only=True)
+        try:
+            state = torch.load(path, map_location="cpu", weights_only=True)  # weights_only: no pickled code runs
+        except Exception as exc:  # noqa: BLE001 - torch raises many kinds for a damaged or hostile file
+            raise WeightsError(f"{path} is not a readable torch weights file ({type(exc).__name__}: "
+                               f"{str(exc).splitlines()[0] if str(exc) else ''}); only tensors are loaded, pickled "
+                               "objects are refused") from None
         flavour = "torchvision"
         for name, idx in zip(LAYERS, (0, 2, 5, 7)):
             try:
