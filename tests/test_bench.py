@@ -217,3 +217,16 @@ def test_collect_jobs_records_interrupts_and_resumes_any_benchmark(tmp_path, cap
         assert got[1]["mode"].tolist() == want[1]["mode"].tolist() and np.array_equal(got[2], want[2])
     again = collect_jobs(job, jobs, _PoolConfig(workers=2), tmp_path, "bench track", "sequence", False, resume=True)
     assert len(calls) == 1 and len(again) == 4  # all recorded: nothing runs, and --workers may differ
+
+
+def test_a_new_run_in_a_used_folder_drops_the_earlier_records(tmp_path):
+    """A run given a folder with an earlier run's records (bench --overwrite) removes them, so that a later --resume
+    cannot mix them with its own; a file hvs_sim did not write there stays."""
+    from hvs_sim.bench.pool import RECORDS_DIR, collect_jobs
+
+    jobs = [("walk_by", "handheld", seed) for seed in (2, 3)]
+    collect_jobs(_sequence_job, jobs, _PoolConfig(), tmp_path, "bench track", "sequence", False)
+    (tmp_path / RECORDS_DIR / "mine.json").write_text("{}")
+    collect_jobs(_sequence_job, jobs[:1], _PoolConfig(), tmp_path, "bench track", "sequence", False)
+    names = sorted(p.name for p in (tmp_path / RECORDS_DIR).glob("*.json"))
+    assert len(names) == 3 and "mine.json" in names and "run.json" in names

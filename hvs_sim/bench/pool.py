@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from hvs_sim.errors import ConfigError
-from hvs_sim.outputs import write_atomic
+from hvs_sim.outputs import clear_written, write_atomic
 
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
 # torch threads in every episode and sequence, whatever --workers: sums split over another number of threads round
@@ -208,9 +208,8 @@ def collect_jobs(fn: Callable, jobs: Sequence, config, out: Path, desc: str, uni
             if found is not None:
                 results[i] = found
     else:
-        if records.is_dir():  # an earlier run's records (the folder was given with --overwrite): not this run's
-            for stale in records.glob("*.json"):
-                stale.unlink()
+        if records.is_dir():  # an earlier run's records (the folder was given with --overwrite): not this run's,
+            clear_written(records)  # and a later --resume must not read them (only files hvs_sim wrote go)
         records.mkdir(parents=True, exist_ok=True)
         write_atomic(records / RUN_RECORD, json.dumps({"kind": kind, "config": recorded_config}, indent=2))
     todo = [i for i in range(len(jobs)) if i not in results]
