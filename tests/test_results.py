@@ -57,6 +57,9 @@ def test_results_make_records_the_clean_commit_and_refuses_a_dirty_tree(repo):
     (repo / "experiments/results/a/stale.txt").write_text("old")  # a manifest folder is made again from nothing
     [made] = manifest.make(["a"], root=repo)
     folder = repo / "experiments/results/a"
+    _git(repo, "-c", "user.email=t@t", "-c", "user.name=t", "add", "-A")
+    _git(repo, "-c", "user.email=t@t", "-c", "user.name=t", "commit", "-qm", "results")
+    [made] = manifest.make(["a"], root=repo)  # made again over its committed self: the results' changes are not code
     assert (folder / "x.txt").read_text() == "1" and not (folder / "stale.txt").exists()
     record = manifest.read_made(folder)
     assert record == made and record["moved"] is False and record["clean_start"] and record["returncode"] == 0

@@ -79,8 +79,8 @@ def load_manifest(root: Path | None = None) -> dict[str, Entry]:
 
 
 def _git(root: Path, *args) -> str:
-    try:
-        return subprocess.run(["git", *args], capture_output=True, text=True, check=True, cwd=root).stdout.strip()
+    try:  # only the line ends stripped: `status --porcelain` lines begin with a meaningful space
+        return subprocess.run(["git", *args], capture_output=True, text=True, check=True, cwd=root).stdout.rstrip("\n")
     except (OSError, subprocess.CalledProcessError) as exc:
         raise StateError(f"`results make` needs hvs_sim's git checkout ({root}): git {' '.join(args)} failed "
                          f"({getattr(exc, 'stderr', '') or exc})") from None
@@ -90,7 +90,7 @@ def tree_state(root: Path) -> dict:
     """The commit and whether anything but experiments/results/ (what results commands write) differs from it."""
     status = _git(root, "status", "--porcelain", "--untracked-files=all")
     changed = [line[3:] for line in status.splitlines() if not line[3:].startswith(f"{RESULTS_ROOT}/")]
-    return {"commit": _git(root, "rev-parse", "HEAD"), "clean": not changed, "changed": changed[:20]}
+    return {"commit": _git(root, "rev-parse", "HEAD").strip(), "clean": not changed, "changed": changed[:20]}
 
 
 def make(names: list[str], root: Path | None = None, allow_dirty: bool = False) -> list[dict]:
