@@ -31,6 +31,7 @@ import importlib
 import importlib.util
 import sys
 import time
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -342,8 +343,39 @@ def _field(out, key, default=None):
     return getattr(out, key, default)
 
 
+CONTRACT_TOL_PX = 0.2  # a first answer this close to the ROI's own corners keeps the contract
+CONTRACT_ROUTE = "docs/plugins.md, the corner convention"
+
+
+class ContractWarning(UserWarning):
+    """An outside tracker's first answer looks like another corner convention than hvs_sim's."""
+
+
+def contract_note(corners: np.ndarray, expected: np.ndarray) -> str | None:
+    """Why an outside tracker's answer on its own template frame (where it should give the ROI back) looks like
+    another convention: half a pixel off (corners on pixel centres, or (x, y)…(x + w, y + h)), or another order.
+    None when it keeps the contract or differs in a way that is not a convention (an honest tracking error)."""
+    err = float(np.abs(corners - expected).max())
+    if err <= CONTRACT_TOL_PX:
+        return None
+    for shift in ((0.5, 0.5), (-0.5, -0.5)):
+        if np.abs(corners - (expected + shift)).max() <= CONTRACT_TOL_PX:
+            return (f"its corners are half a pixel off the ROI it was given ({shift[0]:+.1f}, {shift[1]:+.1f} px): "
+                    "hvs_sim's corners are the outer pixel edges, from (x − 0.5, y − 0.5) to (x + w − 0.5, "
+                    f"y + h − 0.5) ({CONTRACT_ROUTE})")
+    orders = {"counter-clockwise": [0, 3, 2, 1], **{f"starting at corner {k}": list(np.roll(range(4), -k))
+                                                   for k in (1, 2, 3)}}
+    for name, order in orders.items():
+        if np.abs(corners - expected[order]).max() <= CONTRACT_TOL_PX + 0.5:
+            return (f"its corners come in another order ({name}): hvs_sim's are top-left, top-right, bottom-right, "
+                    f"bottom-left ({CONTRACT_ROUTE})")
+    return None
+
+
 class ExternalTracker:
-    """An outside tracker behind hvs_sim's tracker contract: its answers turned into Tracks and checked."""
+    """An outside tracker behind hvs_sim's tracker contract: its answers turned into Tracks and checked. Its first
+    answer on the frame it was given the ROI on is compared with that ROI (`contract_note`): a tracker written to
+    another corner convention is told at step 0, not after a benchmark that failed without a reason."""
 
     def __init__(self, inner, name: str):
         from hvs_sim.tracking.warp import WARPS
@@ -355,6 +387,8 @@ class ExternalTracker:
                               "its corners observe)")
         self.can_seed = callable(getattr(inner, "seed", None))
         self.corners0 = None
+        self.contract_note: str | None = None
+        self._first, self._frame0 = True, None  # the next answer is the first on the ROI's frame (none seeded since)
 
     def init(self, frame, roi):
         from hvs_sim.tracking.frames import check_frame, check_roi, roi_corners
@@ -364,18 +398,33 @@ class ExternalTracker:
         self.corners0 = roi_corners(roi)
         t0 = time.perf_counter()
         out = self.inner.init(frame, roi)
-        return None if out is None else self._track(out, 1e3 * (time.perf_counter() - t0))
+        self._first, self._frame0 = True, frame
+        return None if out is None else self._checked(self._track(out, 1e3 * (time.perf_counter() - t0)))
 
     def seed(self, A) -> None:
         if not self.can_seed:
             raise ConfigError(f"tracker {self.name!r} has no seed(A): it cannot take a template from the goal image; "
                               "use template_from='start'")
+        self._first = False  # later answers are on other frames, at seeded corners
         self.inner.seed(np.asarray(A, float))
 
     def update(self, frame):
         t0 = time.perf_counter()
         out = self.inner.update(frame)
-        return self._track(out, 1e3 * (time.perf_counter() - t0))
+        track = self._track(out, 1e3 * (time.perf_counter() - t0))
+        if self._first and not (frame is self._frame0 or np.array_equal(frame, self._frame0)):
+            self._first = False  # the first update is on another frame: the ROI is no longer its answer
+        return self._checked(track)
+
+    def _checked(self, track):
+        """The first answer after init, compared with the ROI (the loop's step 0 gives the init frame again)."""
+        if self._first:
+            self._first = False
+            note = contract_note(track.corners, self.corners0)
+            if note is not None and self.contract_note is None:
+                self.contract_note = f"tracker {self.name!r}: {note}"
+                warnings.warn(self.contract_note, ContractWarning, stacklevel=3)
+        return track
 
     def _track(self, out, ms: float):
         from hvs_sim.tracking.base import MODES, Track
@@ -464,6 +513,13 @@ class ExternalPolicy:
 
 
 # ------------------------------------------------------------------------ trackers by any spelling
+
+
+def probe(kind: str, text: str | None) -> None:
+    """Build an outside method once and drop it: a factory that fails, hangs or returns an object without the
+    interface is refused before a benchmark's first episode, not after the methods before it have run."""
+    if text and resolve(kind, text) is not None:
+        build(kind, text)
 
 
 def make_any_tracker(text: str, **settings):

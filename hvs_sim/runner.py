@@ -124,9 +124,12 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
             bag.close()
             settle(bag_tmp, Path(mcap), keep)
         if json_path and keep:  # with the settings the loop decided for those the config left to it
-            saved = {**_summary(scenario, tracker, stats, logger, interrupted), "resolved": resolved_json(loop)}
+            saved = {**_summary(scenario, tracker, stats, logger, interrupted), "resolved": resolved_json(loop),
+                     "tracker_contract": getattr(loop.tracker, "contract_note", None)}
             write_atomic(json_path, json.dumps(saved, indent=2))
     summary = _summary(scenario, tracker, stats, logger, False)
+    # an outside tracker whose first answer looked like another corner convention (plugins.contract_note)
+    summary["tracker_contract"] = getattr(loop.tracker, "contract_note", None)
     if figures:
         from hvs_sim.viz.figures import run_figures
 

@@ -270,3 +270,88 @@ def test_dvs_commands_only_the_dofs_it_is_given():
     six = DVSController(K, goal, (100, 80, 100, 80), 0.8).compute(inp)
     assert four.twist[3] == four.twist[4] == 0 and four.dofs == ("vx", "vy", "vz", "wz")
     assert six.twist[4] != 0 and four.twist[0] != 0
+
+
+def test_an_outside_trackers_first_answer_is_checked_against_the_corner_convention(flag_frame):
+    """A tracker written to another corner convention (corners at (x, y)…(x + w, y + h), or counter-clockwise) is
+    told at its first answer, with where the convention is written; one that keeps it, or merely tracks badly, not."""
+    import warnings
+
+    from hvs_sim.plugins import ContractWarning, ExternalTracker
+    from hvs_sim.tracking.frames import roi_corners
+
+    roi = (140, 100, 150, 100)
+
+    class Boxed:  # the natural first version: the box's corner points
+        def __init__(self, shift=(0.0, 0.0), order=(0, 1, 2, 3), on_init=True):
+            self.c, self.on_init = roi_corners(roi)[list(order)] + shift, on_init
+
+        def init(self, frame, roi):
+            return {"corners": self.c} if self.on_init else None
+
+        def update(self, frame):
+            return {"corners": self.c}
+
+    for inner, expect in ((Boxed((0.5, 0.5)), "half a pixel off"), (Boxed(order=(0, 3, 2, 1)), "counter-clockwise"),
+                          (Boxed((0.5, 0.5), on_init=False), "half a pixel off"), (Boxed(), None),
+                          (Boxed((3.0, -2.0)), None)):
+        tracker = ExternalTracker(inner, "mine")
+        with warnings.catch_warnings(record=True) as seen:
+            warnings.simplefilter("always")
+            tracker.init(flag_frame, roi)
+            tracker.update(flag_frame)  # the loop's step 0 on the init frame when init gave no answer
+            tracker.update(flag_frame)
+        notes = [str(w.message) for w in seen if issubclass(w.category, ContractWarning)]
+        if expect is None:
+            assert tracker.contract_note is None and not notes
+        else:
+            assert expect in tracker.contract_note and "docs/plugins.md" in tracker.contract_note and len(notes) == 1
+    seeded = ExternalTracker(Boxed((0.5, 0.5), on_init=False), "mine")
+    seeded.inner.seed = lambda A: None
+    seeded.can_seed = True
+    seeded.init(flag_frame, roi)
+    seeded.seed(np.eye(3))  # a goal template: later answers are at seeded corners on other frames, not checked
+    seeded.update(flag_frame)
+    assert seeded.contract_note is None
+
+
+def test_the_example_tracker_of_plugins_md_keeps_the_corner_convention(flag_frame):
+    """The example a newcomer copies from docs/plugins.md runs, follows a shifted target and raises no warning."""
+    import re
+    from pathlib import Path
+
+    from hvs_sim.plugins import ExternalTracker
+    from hvs_sim.tracking.frames import roi_corners
+
+    text = (Path(__file__).resolve().parents[1] / "docs/plugins.md").read_text()
+    code = next(b for b in re.findall(r"```python\n(.*?)```", text, re.DOTALL) if "class TemplateTracker" in b)
+    space: dict = {}
+    exec(compile(code, "plugins.md", "exec"), space)  # noqa: S102 - the doc's own example
+    tracker = ExternalTracker(space["make"](), "example")
+    roi = (140, 100, 150, 100)
+    tracker.init(flag_frame, roi)
+    moved = np.roll(flag_frame, (3, 5), axis=(0, 1))  # the view shifted 5 px right, 3 px down
+    track = tracker.update(moved)
+    assert tracker.contract_note is None
+    np.testing.assert_allclose(track.corners, roi_corners(roi) + (5, 3), atol=1e-9)
+
+
+def test_a_benchmark_refuses_a_broken_outside_method_before_any_episode(tmp_path, monkeypatch):
+    """Every outside factory is built once when the benchmark is configured: a tracker without update() named after
+    the reference methods is refused before an episode or a sequence runs."""
+    from hvs_sim.bench import servo
+    from hvs_sim.bench.servo import ServoBenchConfig
+    from hvs_sim.bench.track import TrackBenchConfig
+
+    ran = []
+    monkeypatch.setattr(servo, "_episode", lambda job: ran.append(job))
+    with pytest.raises(ConfigError, match="lacks init, update"):
+        ServoBenchConfig(trackers=("ground_truth", "hybrid:homography", "{hvs_test_plugins.law:make}"))
+    with pytest.raises(ConfigError, match="lacks init, update"):
+        TrackBenchConfig(methods=("hybrid", "hvs_test_plugins.law:make"))
+    with pytest.raises(ConfigError, match="lacks compute"):  # a tracker named as the law
+        ServoBenchConfig(trackers=("ground_truth/{hvs_test_plugins.track:make}",))
+    assert not ran
+    assert main(["bench", "servo", "--suite", "quick", "--methods", "{hvs_test_plugins.law:make}",
+                 "--out", str(tmp_path / "q")]) == 2
+    assert not ran and not any((tmp_path / "q").glob("*.json"))

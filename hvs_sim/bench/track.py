@@ -103,13 +103,14 @@ class TrackBenchConfig:
 
     def __post_init__(self):
         from hvs_sim.camera_model import sensor_preset
-        from hvs_sim.plugins import check_any_tracker
+        from hvs_sim.plugins import check_any_tracker, probe
         from hvs_sim.scene.scenarios import MOUNTS, PEOPLE_STYLES, SCENARIO_NAMES
 
         if not self.methods:
             raise ConfigError("the tracking benchmark needs at least one tracker")
         for m in self.methods:
             check_any_tracker(m)
+            probe("tracker", m)  # an outside tracker built once: a broken factory is found before any sequence
         for what, values, accepted in (("scenario", self.scenarios, SCENARIO_NAMES),
                                        ("mount", self.mounts, MOUNTS), ("people style", (self.people,), PEOPLE_STYLES)):
             if not values:
