@@ -324,7 +324,7 @@ def test_bench_and_sweep_report_onto_a_full_disk(tmp_path, capsys, full_disk, mo
     from hvs_sim.bench import track
     from hvs_sim.sweep import parse_spec, report, run_sweep
 
-    def bench(cfg, out, progress=True):  # the benchmark's own work, stubbed: its summary is what is rewritten
+    def bench(cfg, out, progress=True, resume=False):  # the benchmark's own work, stubbed: its summary is what is rewritten
         outputs.write_atomic(Path(out) / "summary.json", "{}")
         return {"occlusion_scenarios": {}, "target_set": {}}
 
