@@ -457,9 +457,9 @@ class ServoLoop:
                    "beyond them")
         elif inset is not None and inset < 0:
             why = f"roi_inset_px ({inset}) grows the first template already"
-        elif near == NEAR_GOAL_AUTO and tracker not in TRACKER_NAMES:
-            why = (f"{tracker!r} is an outside tracker: the automatic switch is the built-in trackers' (give "
-                   "near_goal_inset_px a growth to switch it too)")
+        elif near == NEAR_GOAL_AUTO and not getattr(self.tracker, "near_goal", True):
+            why = (f"{tracker!r} declines the near-goal template (its `near_goal` is False; give near_goal_inset_px "
+                   "a growth to switch it anyway)")
         if why is not None:
             if near != NEAR_GOAL_AUTO:
                 raise ConfigError(f"near_goal_inset_px ({near}) switches a tracker to a template grown in the goal "

@@ -386,6 +386,9 @@ class ExternalTracker:
             raise ConfigError(f"tracker {name!r} declares warp {self.warp!r}; accepted: {', '.join(WARPS)} (which DOFs "
                               "its corners observe)")
         self.can_seed = callable(getattr(inner, "seed", None))
+        # the loop's help near the goal (a template grown into the target's plane, given through init and seed) is
+        # offered to every tracker with a goal template; one that cannot use it declines by `near_goal = False`
+        self.near_goal = bool(getattr(inner, "near_goal", True))
         self.corners0 = None
         self.contract_note: str | None = None
         self._first, self._frame0 = True, None  # the next answer is the first on the ROI's frame (none seeded since)

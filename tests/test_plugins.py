@@ -355,3 +355,25 @@ def test_a_benchmark_refuses_a_broken_outside_method_before_any_episode(tmp_path
     assert main(["bench", "servo", "--suite", "quick", "--methods", "{hvs_test_plugins.law:make}",
                  "--out", str(tmp_path / "q")]) == 2
     assert not ran and not any((tmp_path / "q").glob("*.json"))
+
+
+def test_the_near_goal_template_is_offered_to_an_outside_tracker_that_can_take_it():
+    """The loop's help near the goal is the loop's: an outside tracker with a goal template gets the automatic
+    near-goal template as the built-ins do; one declaring `near_goal = False` declines it, and the run says why."""
+    from hvs_test_plugins.track import KLTHomography
+
+    from hvs_sim.loopparts import NEAR_GOAL_AUTO
+
+    scenario = make_scenario("clear", mount="arm", camera=CAM)
+    offered = ServoLoop(scenario, "hvs_test_plugins.track:make", LoopConfig(steps=2))
+    assert offered.resolved.near_goal == NEAR_GOAL_AUTO and offered.near_goal_off is None
+
+    class Declines(KLTHomography):
+        near_goal = False
+
+    hvs_sim.register_tracker("declines_near_goal", Declines, replace=True)
+    try:
+        declined = ServoLoop(scenario, "declines_near_goal", LoopConfig(steps=2))
+    finally:
+        hvs_sim.plugins.unregister("tracker", "declines_near_goal")
+    assert declined.resolved.near_goal is None and "declines the near-goal template" in declined.near_goal_off

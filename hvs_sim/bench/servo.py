@@ -356,6 +356,9 @@ def method_results(eps: list[dict], success_px: float) -> dict:
         # default template's figure under the near-goal's name
         "near_goal_switched": (None if all(n is None for n in near) else
                                int(sum(n is not None and n.get("switched_at_step") is not None for n in near))),
+        # why episodes had no near-goal template (the first reason given), so a table says what help a method had
+        "near_goal_off": next((e["near_goal"].get("off") for e in eps if isinstance(e.get("near_goal"), dict)
+                               and e["near_goal"].get("off")), None),
     }
 
 
@@ -433,6 +436,13 @@ def camera_label(camera) -> str:
     return camera.name if camera.blur == BLUR_MODES[0] else f"{camera.name} ({camera.blur} blur)"
 
 
+def _help(r: dict) -> str:
+    """The near-goal template as a method had it: switched to in how many episodes, or why it had none."""
+    if r.get("near_goal_switched") is not None:
+        return f"near-goal template (switched in {r['near_goal_switched']} of {r['episodes']})"
+    return f"none: {r['near_goal_off']}" if r.get("near_goal_off") else "none"
+
+
 def servo_table(summary: dict, config: ServoBenchConfig) -> str:
     from hvs_sim.bench.stats import RULES
 
@@ -449,8 +459,8 @@ def servo_table(summary: dict, config: ServoBenchConfig) -> str:
         lines += [f"## {s}", "",
                   ("| method | DOFs | hvs_sim | CNS | Felton | ViSP | reached | final pose error (mm) | final pose error (°) "
                   "| final image error (px) | max error in occlusion (px) | re-acquired | time to re-acquire (s) "
-                  "| drift while hidden (px) | faults | steps/s |"),
-                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+                  "| drift while hidden (px) | faults | steps/s | the loop's help near the goal |"),
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for t, r in per.items():
             occ = _fmt(r["median_max_error_during_occlusion_px"], ".1f")
             lines.append(
@@ -459,7 +469,7 @@ def servo_table(summary: dict, config: ServoBenchConfig) -> str:
                 f"{_med_ci(r['final_pose_error_deg'], '.2f')} | {_med_ci(r['final_error_px'], '.2f')} | {occ} | "
                 f"{_pct_ci(r['reacquired'])} | {_med_ci(r['seconds_to_reacquire'], '.2f')} | "
                 f"{_med_ci(r['max_tracker_error_while_hidden_px'], '.1f')} | {r['fault_steps']} in "
-                f"{r['fault_episodes']} ep. | {r['steps_per_second']:.1f} |")
+                f"{r['fault_episodes']} ep. | {r['steps_per_second']:.1f} | {_help(r)} |")
         lines.append("")
     notes = sorted({e["tracker_contract"] for e in summary["episodes"] if e.get("tracker_contract")})
     if notes:  # a method that kept another corner convention: its figures say nothing of its tracking
