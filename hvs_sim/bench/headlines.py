@@ -39,6 +39,8 @@ class Figures:
 
     count: int = 0
     cited: list[str] = field(default_factory=list)
+    entries: dict = field(default_factory=dict)  # the manifest, read once for a table
+    frames: dict = field(default_factory=dict)  # each cited frames.csv, read once for a table (_track_frames)
 
     def __call__(self, value: float | None, spec: str) -> str:
         self.count += 1
@@ -53,30 +55,33 @@ def _rows(path: Path) -> list[dict]:
         raise ConfigError(f"cannot read {path} ({exc.strerror or exc}); make it with `hvs-sim results make`") from None
 
 
-def track_pct(folder: Path, method: str, target_set: bool, visible: bool = False) -> float:
-    """% of frames (after the init frame) of `method` within TRACK_PX, over the target set's sequences when
-    `target_set` (the sim benchmark), optionally only those with true occlusion < VISIBLE_BELOW."""
-    rows = [r for r in _rows(folder / "frames.csv") if r["method"] == method and int(r["frame"]) > 0]
+def _track_frames(folder: Path, method: str, target_set: bool, frames: dict) -> list[dict]:
+    """`method`'s frames after the init frame (over the target set's sequences when `target_set`); `frames` holds
+    each frames.csv read once for a table (a natural-imagery one is megabytes, and every figure reads it)."""
+    path = folder / "frames.csv"
+    if path not in frames:
+        frames[path] = _rows(path)
+    rows = [r for r in frames[path] if r["method"] == method and int(r["frame"]) > 0]
     if target_set:
         rows = [r for r in rows if r["scenario"] in TARGET_SET[0] and r["mount"] == TARGET_SET[1]]
+    if not rows:
+        raise ConfigError(f"{path} holds no frames of {method!r} for the headline")
+    return rows
+
+
+def track_pct(rows: list[dict], visible: bool = False) -> float:
+    """% of `rows` (_track_frames) within TRACK_PX, optionally only those with true occlusion < VISIBLE_BELOW."""
     if visible:
         rows = [r for r in rows if float(r["occlusion"]) < VISIBLE_BELOW]
-    if not rows:
-        raise ConfigError(f"{folder}/frames.csv holds no frames of {method!r} for the headline")
     return 100.0 * float(np.mean([float(r["error_px"]) <= TRACK_PX for r in rows]))
 
 
-def track_interval(folder: Path, method: str, target_set: bool, resamples: int = 2000) -> tuple[float, float]:
+def track_interval(rows: list[dict], resamples: int = 2000) -> tuple[float, float]:
     """A 95 % interval of track_pct by a seeded bootstrap over the sequences (frames of one sequence are not
     independent draws; sequences are)."""
     per: dict[tuple, list[int]] = {}
-    for r in _rows(folder / "frames.csv"):
-        if r["method"] != method or int(r["frame"]) == 0:
-            continue
-        if target_set and (r["scenario"] not in TARGET_SET[0] or r["mount"] != TARGET_SET[1]):
-            continue
-        key = tuple(r[k] for k in list(r)[:3])
-        n_ok = per.setdefault(key, [0, 0])
+    for r in rows:
+        n_ok = per.setdefault(tuple(r[k] for k in list(r)[:3]), [0, 0])  # the sequence's key columns
         n_ok[0] += 1
         n_ok[1] += float(r["error_px"]) <= TRACK_PX
     counts = np.array(list(per.values()), float)
@@ -107,29 +112,27 @@ def servo_figures(folder: Path, scenario: str, method: str) -> dict:
     return {"n": len(eps), "held": 100.0 * float(np.mean(ok)), "held_ci": (100.0 * lo, 100.0 * hi),
             "mm": float(np.median([e["final_pose_error_mm"] for e in eps])),
             "deg": float(np.median([e["final_pose_error_deg"] for e in eps])),
-            "p95_mm": float(np.percentile([e["final_pose_error_mm"] for e in eps], 95)),
             "worst_mm": float(np.max([e["final_pose_error_mm"] for e in eps]))}
 
 
 def _folder(root: Path, name: str, fig: Figures) -> Path:
-    entry = manifest.load_manifest(root)[name]
     fig.cited.append(name)
-    return root / entry.folder
+    return root / fig.entries[name].folder
 
 
 def _track_row(root, fig, test: str, fresh: str, methods, target_set: bool) -> str:
     def one(name):
         f = _folder(root, name, fig)
-        seqs = {tuple(r[k] for k in list(r)[:3]) for r in _rows(f / "frames.csv") if r["frame"] == "0"}
-        lead = (f"hybrid **{fig(track_pct(f, methods[0], target_set), '.1f')} %** "
-                f"({fig(track_pct(f, methods[0], target_set, visible=True), '.1f')} % of frames < 40 % occluded)")
-        rest = ", ".join(f"{m} {fig(track_pct(f, m, target_set), '.1f')} %" for m in methods[1:])
-        return f"{lead}; {rest} ({len(seqs)} sequences)"
+        rows = {m: _track_frames(f, m, target_set, fig.frames) for m in methods}
+        seqs = {tuple(r[k] for k in list(r)[:3]) for r in rows[methods[0]]}
+        lead = (f"hybrid **{fig(track_pct(rows[methods[0]]), '.1f')} %** "
+                f"({fig(track_pct(rows[methods[0]], visible=True), '.1f')} % of frames < 40 % occluded)")
+        rest = ", ".join(f"{m} {fig(track_pct(rows[m]), '.1f')} %" for m in methods[1:])
+        return f"{lead}; {rest} ({len(seqs)} sequences)", rows[methods[0]]
 
-    text = f"test seeds: {one(test)}; fresh seeds: {one(fresh)}"
-    fresh_pct = track_pct(root / manifest.load_manifest(root)[fresh].folder, methods[0], target_set)
-    interval = track_interval(root / manifest.load_manifest(root)[test].folder, methods[0], target_set)
-    return f"{text}; hybrid: {agreement(fresh_pct, interval, fig, '.1f')}"
+    (t_text, t_rows), (f_text, f_rows) = one(test), one(fresh)
+    agree = agreement(track_pct(f_rows), track_interval(t_rows), fig, ".1f")
+    return f"test seeds: {t_text}; fresh seeds: {f_text}; hybrid: {agree}"
 
 
 def _servo_row(root, fig, test: str, fresh: str, scenarios=("walk_by", "pause"), method="hybrid:homography") -> str:
@@ -178,6 +181,7 @@ ROWS: list[tuple[str, Callable[[Path, Figures], str]]] = [
 def render_table(table: str, root: Path, fig: Figures | None = None) -> str:
     """The table's text (with a `where` column in docs/results.md)."""
     fig = fig if fig is not None else Figures()
+    fig.entries = fig.entries or manifest.load_manifest(root)
     where = table == "glance"
     lines = ["| question | figure |" + (" where |" if where else ""), "|---|---|" + ("---|" if where else "")]
     for question, make in ROWS:
@@ -185,10 +189,9 @@ def render_table(table: str, root: Path, fig: Figures | None = None) -> str:
         text = make(root, fig)
         cells = [question, text]
         if where:
-            cells.append(", ".join(f"`{manifest.load_manifest(root)[n].folder}/`" for n in fig.cited[start:]))
+            cells.append(", ".join(f"`{fig.entries[n].folder}/`" for n in fig.cited[start:]))
         lines.append("| " + " | ".join(cells) + " |")
-    commits = sorted({manifest.read_made(root / manifest.load_manifest(root)[n].folder)["commit_start"][:7]
-                      for n in fig.cited})
+    commits = sorted({manifest.read_made(root / fig.entries[n].folder)["commit_start"][:7] for n in fig.cited})
     lines += ["", (f"Test seeds are seeds nothing was tuned on; fresh seeds were drawn from the system's entropy when "
                   f"the run was made. Made by `hvs-sim results make` at {', '.join(commits)} "
                   "(experiments/results/MANIFEST.toml has each command).")]
@@ -264,7 +267,7 @@ def check(root: Path | None = None) -> Report:
         text = (root / rel).read_text()
         i, j = _block(text, table, rel)
         shown = text[i:j].strip("\n")
-        fig = Figures()
+        fig = Figures(entries=entries)
         try:
             expected = render_table(table, root, fig)
         except (ConfigError, OSError, KeyError, json.JSONDecodeError) as exc:
