@@ -95,11 +95,3 @@ def check_tuning_seeds(bench: str, seeds, allow_test: bool = False) -> None:
         raise ConfigError(f"seeds {shown} are {bench} test seeds ({split_of(bench).describe()}): tuning uses dev seeds; "
                           "pass --allow-test-seeds to look at test seeds anyway (the output then says so)")
 
-
-def add_tuning_seed_arguments(parser, bench: str, n: int) -> None:
-    """--seeds (default: the first `n` dev seeds) and --allow-test-seeds, for the scripts under experiments/."""
-    dev = split_of(bench).dev
-    parser.add_argument("--seeds", nargs="+", type=int, default=list(dev[:n]),
-                        help=f"{bench} seeds (default: the first {n} dev seeds, {dev[0]}–{dev[n - 1]})")
-    parser.add_argument("--allow-test-seeds", action="store_true",
-                        help="allow test seeds, which figures are published on (recorded in the output)")
