@@ -395,17 +395,25 @@ def write_atomic(path, text: str, recorded: bool | None = False) -> None:
     half a file, and an interrupted write leaves the old one (`recorded`: as settle's)."""
     path = Path(path)
     tmp = temporary_beside(path)
-    try:
+    with _settling(tmp, path):
         with open_output(tmp) as f:
             f.write(text)
         settle(tmp, path, keep=True, recorded=recorded)
-    except OSError as exc:  # a full disk, a folder gone: say which file, keep the one that was there
-        if isinstance(exc, OutputError):
-            raise
-        raise output_error(path, exc) from None
-    finally:
+
+
+@contextlib.contextmanager
+def _settling(tmp: Path, path: Path):
+    """The body writes `tmp` and settles it as `path`. On any failure, an interrupt included, the temporary goes
+    (the file that was there is kept), and an OSError that is not an OutputError yet becomes one naming `path` (a
+    full disk, a folder gone)."""
+    try:
+        yield
+    except BaseException as exc:
         _pending.pop(tmp.absolute(), None)
-        tmp.unlink(missing_ok=True)
+        _remove(tmp)
+        if isinstance(exc, OSError) and not isinstance(exc, OutputError):
+            raise output_error(path, exc) from None
+        raise
 
 
 def write_with(path, write, need_bytes: int = 0) -> Path:
@@ -414,20 +422,13 @@ def write_with(path, write, need_bytes: int = 0) -> Path:
     with no partial file left."""
     path = Path(path)
     tmp = temporary_beside(path)
-    try:
+    with _settling(tmp, path):
         ensure_space(tmp, need_bytes, native=False)  # these writers are Python's: a full disk is their OSError
         ok = write(tmp)
         if ok is False or not tmp.exists():
             raise OSError(errno.EIO, "the writer could not write it (disk full or folder not writable?)", str(path))
         account(tmp, tmp.stat().st_size)
         settle(tmp, path, keep=True)
-    except OutputError:
-        _remove(tmp)
-        raise
-    except OSError as exc:
-        _pending.pop(tmp.absolute(), None)
-        _remove(tmp)
-        raise output_error(path, exc) from None
     return path
 
 
@@ -447,17 +448,10 @@ def write_image(path, bgr, recorded: bool | None = False) -> Path:
     if not ok:
         raise OutputError(f"could not encode {path} as {path.suffix or '.png'}")
     tmp = temporary_beside(path)
-    try:
+    with _settling(tmp, path):
         with open_output(tmp, "wb") as f:
             f.write(data.tobytes())
         settle(tmp, path, keep=True, recorded=recorded)
-    except OutputError:
-        _remove(tmp)
-        raise
-    except OSError as exc:
-        _pending.pop(tmp.absolute(), None)
-        _remove(tmp)
-        raise output_error(path, exc) from None
     return path
 
 
