@@ -6,6 +6,7 @@ fallback when PyAV or its H.264 encoder is missing, and the writer says which co
 
 from __future__ import annotations
 
+import contextlib
 import logging
 from pathlib import Path
 
@@ -52,15 +53,9 @@ class Mp4Writer:
 
     def write(self, rgb: np.ndarray) -> None:
         """One frame; a full disk is an OutputError before FFmpeg is handed a chunk it cannot write (it may crash)."""
-        try:
+        with self._named_failures():
             outputs.ensure_space(self.path, rgb.nbytes)
             self._write(rgb)
-        except OSError as exc:
-            raise outputs.output_error(self.shown, exc) from None
-        except Exception as exc:
-            if _ffmpeg_error(exc):
-                raise outputs.output_error(self.shown, exc) from None
-            raise
 
     def _write(self, rgb: np.ndarray) -> None:
         if self._av is not None:
@@ -79,8 +74,14 @@ class Mp4Writer:
         self.frames += 1
 
     def close(self) -> None:
-        try:
+        with self._named_failures():
             self._close()
+
+    @contextlib.contextmanager
+    def _named_failures(self):
+        """A write the disk or FFmpeg could not finish, as an OutputError naming the video; other errors go on."""
+        try:
+            yield
         except OSError as exc:
             raise outputs.output_error(self.shown, exc) from None
         except Exception as exc:
