@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from hvs_sim.camera_model import BLUR_MODES, SENSOR_NAMES, sensor_preset
+from hvs_sim.outputs import save_figure
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import SUPERSAMPLE_CHOICES, CameraConfig, make_scenario
 from hvs_sim.scene.world import Scene
@@ -104,7 +105,7 @@ def preset_figure(frames: dict[str, dict[int, np.ndarray]], path: Path) -> None:
             ax.axis("off")
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=80)
+    save_figure(fig, path, dpi=80)  # written whole, through the output layer
     plt.close(fig)
 
 

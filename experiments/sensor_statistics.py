@@ -23,6 +23,7 @@ import cv2
 import numpy as np
 
 from hvs_sim.camera_model import SensorState, encode, output_variance, sensor_preset
+from hvs_sim.outputs import save_figure
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 from hvs_sim.scene.world import Scene
@@ -151,7 +152,7 @@ def figure(before: dict, after: dict, path: Path) -> None:
     ax.legend(fontsize=7)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
+    save_figure(fig, path, dpi=90)  # written whole, through the output layer
     plt.close(fig)
 
 
