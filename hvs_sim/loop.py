@@ -32,6 +32,7 @@ from hvs_sim.control.ibvs import (
 )
 from hvs_sim.control.pbvs import PBVSController
 from hvs_sim.control.protocol import ControlInput, PolicyInput, scale_depths
+from hvs_sim.control.safety import Envelope, SafetyConfig, SafetyGate
 from hvs_sim.errors import ConfigError, HvsError, InputError, StateError, choice_error
 from hvs_sim.loopparts import (
     GOAL_FRAMES,
@@ -131,6 +132,10 @@ class LoopConfig:
     # track frame k in a second thread while the physics steps and frame k + 1 renders (ServoLoop.run): the step
     # costs about the longer of the two instead of their sum, and frame k's command acts one frame later
     pipeline: bool = False
+    # the safety rule (control/safety.py): the twist ramps to zero while the loop does not see the target (lost, a
+    # long prediction, features implausible or out of the image) and servoing resumes on a verified alignment; a
+    # command that would leave the workspace envelope ends the episode as aborted. For every tracker and law
+    safety: SafetyConfig = field(default_factory=SafetyConfig)
 
     def __post_init__(self):
         if self.controller not in CONTROLLERS:
@@ -180,6 +185,8 @@ class LoopConfig:
         check_number("converge_mm", self.converge_mm, 0, lo_open=True)
         check_number("converge_deg", self.converge_deg, 0, lo_open=True)
         check_flags(self, ("keep_frames", "evaluate", "pipeline"))
+        if not isinstance(self.safety, SafetyConfig):
+            raise ConfigError(f"safety must be a SafetyConfig (hvs_sim.control.safety), got {type(self.safety).__name__}")
 
     @property
     def near_goal_within_px(self) -> float:
@@ -226,6 +233,10 @@ class StepRecord:
     wall_ms: float | None = None
     controlled_pose_error: tuple[float, float] = (0.0, 0.0)  # (mm, deg) of pose_error in those DOFs
     people: list = field(default_factory=list)  # (feet position, orientation) of each person
+    # the safety rule (LoopConfig.safety): why it held the arm this step (None: the law's twist was followed), and
+    # why the episode ended here, when the next command would have left the workspace envelope
+    held_because: str | None = None
+    aborted: str | None = None
     arm: tuple | None = None  # (positions (k, 3), orientations (k, 3, 3)) of the arm's meshes (Scene.arm_meshes)
 
     @property
@@ -600,6 +611,8 @@ class ServoLoop:
             with lap(timings, "physics"):
                 self.scene.advance(cmd.qdot)
             yield self._record(step, cap, ep, seen, ctrl, cmd, timings, wall_ms=wall.lap())
+            if ep.aborted is not None:
+                return
             if step + 1 < self.config.steps:
                 cap = self._capture()
 
@@ -635,6 +648,8 @@ class ServoLoop:
                 self._near_goal_due(ep, seen)
             timings["control"] += depths_ms
             yield self._record(step, cap, ep, seen, ctrl, cmd, timings, wall_ms=wall.lap())
+            if ep.aborted is not None:
+                return
             qdot_due, cap = cmd.qdot, nxt
 
     def _capture(self) -> Capture:
@@ -678,7 +693,19 @@ class ServoLoop:
                 raise StateError(f"policy {self.config.policy!r} failed in reset(): {type(exc).__name__}: {exc}") \
                     from exc
         feature_filter = self._feature_filter(desired) if res.filter_alpha > 0 else None
-        return Episode(flag0, roi, roi0, inset, desired, template_frame, goal, controller, feature_filter, near_goal)
+        ep = Episode(flag0, roi, roi0, inset, desired, template_frame, goal, controller, feature_filter, near_goal)
+        self._start_safety(ep, cap)
+        return ep
+
+    def _start_safety(self, ep: Episode, cap: Capture) -> None:
+        """The safety rule's state for the episode: the gate on s*, the envelope from the camera's start pose (forward
+        kinematics) and the taught goal, and the carrier that predicts each measurement from the camera's motion."""
+        cam, safety = self.scenario.camera, self.config.safety
+        ep.gate = SafetyGate(safety, self.scenario.fps, ep.desired, cam.width, cam.height)
+        goal_pos, goal_R = self.scene.reference_pose()
+        ep.envelope = Envelope(safety, cap.gt.camera.t, cap.gt.camera.R, goal_pos, goal_R)
+        ep.carrier = FeatureFilter(self.renderer.K, 1.0, self._pinhole(ep.desired), self.desired_depth) \
+            if self.tracker is not None else None
 
     def _template_box(self, outline, inset: int, option: str) -> tuple[int, int, int, int]:
         """The template's box: the target's outline box inset (grown, when negative); InputError when a grown box runs
@@ -695,7 +722,8 @@ class ServoLoop:
         """After a step's control: when the features (as control used them) are within near_goal_px of s* and the
         grown box, carried by their homography, is in view, the switch to the grown template is due at the next
         step (ep.grow_from: that homography, the tracker's seed)."""
-        if ep.near_goal is None or ep.grown_at is not None or seen.fault is not None or seen.mode != "align":
+        if (ep.near_goal is None or ep.grown_at is not None or seen.fault is not None or seen.mode != "align"
+                or ep.gate.closed_because is not None):
             return
         if float(np.linalg.norm(seen.features - ep.desired, axis=1).mean()) > self.config.near_goal_within_px:
             return
@@ -720,6 +748,9 @@ class ServoLoop:
         ep.controller = self._controller(self._pinhole(near.desired), ep.goal, near.roi)
         if ep.feature_filter is not None:
             ep.feature_filter = self._feature_filter(near.desired)
+        ep.gate.set_desired(near.desired)
+        if ep.carrier is not None:  # other corners from here: nothing to carry
+            ep.carrier = FeatureFilter(self.renderer.K, 1.0, self._pinhole(near.desired), self.desired_depth)
         ep.grown_at, ep.grow_from = step, None
 
     def _feature_filter(self, desired: np.ndarray) -> FeatureFilter:
@@ -793,8 +824,34 @@ class ServoLoop:
                 fault, mode = f"{type(exc).__name__}: {exc}", "fault"
                 if ep.feature_filter is not None:  # a faulty frame clears the filter, as a tracker fault does
                     ep.feature_filter.reset()
-        cmd = self.arm.command(ctrl.twist if ctrl is not None else np.zeros(6))
+        twist = self._safe_twist(ep, cap, seen, ctrl, fault)
+        if ctrl is not None:
+            ctrl = dataclasses.replace(ctrl, twist=twist)
+        cmd = self.arm.command(twist)
         return dataclasses.replace(seen, features=features, mode=mode, fault=fault), ctrl, cmd
+
+    def _safe_twist(self, ep: Episode, cap: Capture, seen: Measured, ctrl: ControlOutput | None,
+                    fault: str | None) -> np.ndarray:
+        """The law's twist through the safety rule (control/safety.py): the gate judges the tracker's own corners
+        (not the filtered ones) and holds the arm while it does not see; a twist that would carry the camera out of
+        the envelope within one step is not commanded, and the episode ends (ep.aborted)."""
+        jump, px = None, None
+        if self.tracker is not None and seen.fault is None:
+            px = seen.tracked
+            pinhole = self._pinhole(px)
+            carried = ep.carrier.predict(cap.gt.camera) if ep.carrier.state is not None else None
+            jump = None if carried is None else float(np.linalg.norm(pinhole - carried, axis=1).max())
+            ep.carrier.update(pinhole, cap.gt.camera, usable=seen.mode != "lost")
+        confidence = seen.track.confidence if seen.track is not None else None
+        ep.held_because = ep.gate.update(px, seen.mode, confidence, fault is not None, jump)
+        twist = ep.gate.twist(ctrl.twist if ctrl is not None else None)
+        if not np.any(twist):
+            return twist
+        inside = ep.envelope.check(cap.gt.camera.t, cap.gt.camera.R, twist, 1.0 / self.scenario.fps)
+        if not inside.inside:
+            ep.aborted = inside.reason
+            return np.zeros(6)
+        return twist
 
     def _record(self, step: int, cap: Capture, ep: Episode, seen: Measured, ctrl: ControlOutput | None,
                 cmd: JointCommand, timings: dict[str, float], wall_ms: float | None = None) -> StepRecord:
@@ -817,4 +874,4 @@ class ServoLoop:
             template=(res.template_from, int(ep.inset), res.goal_frames),
             target_in_view=corners_in_view(gt.corners, self.scenario.camera),
             controlled_pose_error=self.controlled_pose_error(cap.pose_error), people=cap.people, arm=cap.arm,
-            wall_ms=wall_ms)
+            wall_ms=wall_ms, held_because=ep.held_because, aborted=ep.aborted)

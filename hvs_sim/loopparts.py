@@ -16,6 +16,7 @@ from hvs_sim.tracking import Track
 
 if TYPE_CHECKING:
     from hvs_sim.control.feature_filter import FeatureFilter
+    from hvs_sim.control.safety import Envelope, SafetyGate
 
 # where the tracked features' template comes from (LoopConfig.template_from): the run's first frame ("start"),
 # or an image taken with the camera at the reference pose before the run ("goal": teach-by-showing)
@@ -99,6 +100,11 @@ class Episode:
     camera_prev: CameraPose | None = None  # the camera at the step before: the camera's own motion between frames
     grow_from: np.ndarray | None = None  # the homography to seed the grown template at: the switch is due next step
     grown_at: int | None = None  # the step the grown template took over
+    gate: SafetyGate | None = None  # the safety rule's gate (set at step 0)
+    envelope: Envelope | None = None  # the workspace the camera may not leave (set at step 0)
+    carrier: FeatureFilter | None = None  # the last measurement carried by the camera's motion (the gate's jump test)
+    held_because: str | None = None  # why the gate holds the arm this step (None: it servos)
+    aborted: str | None = None  # why the episode ended: the next command would have left the envelope
 
 
 @dataclass

@@ -16,6 +16,8 @@ MODES = ("align", "predict", "lost", "fault")  # a record's mode, in the order i
 
 REAPPEAR_OCCLUSION, HIDDEN_OCCLUSION = 0.1, 0.5  # the target "reappears" under 10 % hidden after ≥ 50 % hidden
 REACQUIRED_PX = 2.0  # re-acquired: aligned again with the tracked corners this close to the truth
+# a runaway: the camera ended this much further from the goal than it started (or the envelope stopped it)
+RUNAWAY_MM = 50.0
 
 
 class RunStats:
@@ -29,6 +31,10 @@ class RunStats:
         self.config, self.n, self.near_goal = config, 0, near_goal
         self.time, self.error_px, self.tracker_error_px, self.occlusion = (np.full(n, np.nan) for _ in range(4))
         self.controlled = np.full((n, 2), np.nan)
+        self.camera_t = np.full((n, 3), np.nan)  # the camera's position (m), truth: how far it moved while hidden
+        self.held = 0  # steps the safety rule held the arm
+        self.held_because: dict[str, int] = {}
+        self.aborted: str | None = None
         self.mode = np.zeros(n, np.int8)
         self.step_ms = np.zeros(n)
         self.timings: dict[str, np.ndarray] = {}
@@ -48,6 +54,11 @@ class RunStats:
         k = self.n
         self.time[k], self.error_px[k], self.tracker_error_px[k] = r.time, r.error_px, r.tracker_error_px
         self.occlusion[k], self.controlled[k] = r.occlusion, r.controlled_pose_error
+        self.camera_t[k] = r.camera.t
+        if r.held_because is not None:
+            self.held += 1
+            self.held_because[r.held_because] = self.held_because.get(r.held_because, 0) + 1
+        self.aborted = self.aborted or r.aborted
         self.mode[k] = MODES.index(r.mode) if r.mode in MODES else MODES.index("fault")
         for stage, ms in r.timings.items():
             self.timings.setdefault(stage, np.zeros(len(self.time)))[k] = ms
@@ -96,11 +107,15 @@ class RunStats:
         drifted while the target was hidden (max tracker error over steps ≥ HIDDEN_OCCLUSION hidden)."""
         n = self.n
         occ, terr, mode = self.occlusion[:n], self.tracker_error_px[:n], self.mode[:n]
-        out = {"seconds_to_reacquire": None, "reacquired": None, "max_tracker_error_while_hidden_px": None}
-        if not np.all(np.isfinite(occ)) or not np.isfinite(terr).any():
+        out = {"seconds_to_reacquire": None, "reacquired": None, "max_tracker_error_while_hidden_px": None,
+               "max_drift_while_hidden_mm": None}
+        if not np.all(np.isfinite(occ)):
             return out
         hidden = np.flatnonzero(occ >= HIDDEN_OCCLUSION)
         if not len(hidden):
+            return out
+        out["max_drift_while_hidden_mm"] = self._drift_while_hidden_mm(occ >= HIDDEN_OCCLUSION)
+        if not np.isfinite(terr).any():
             return out
         drift = terr[hidden]
         out["max_tracker_error_while_hidden_px"] = float(np.nanmax(drift)) if np.isfinite(drift).any() else None
@@ -113,6 +128,18 @@ class RunStats:
         if len(ok):
             out["seconds_to_reacquire"] = float(self.time[ok[0]] - self.time[back])
         return out
+
+    def _drift_while_hidden_mm(self, hidden: np.ndarray) -> float:
+        """How far the camera moved while the target was hidden: over each stretch of hidden steps, the largest
+        distance (mm) from where the camera was when the stretch began (truth, for evaluation)."""
+        worst, start = 0.0, None
+        for k, h in enumerate(hidden):
+            if not h:
+                start = None
+                continue
+            start = k if start is None else start
+            worst = max(worst, float(np.linalg.norm(self.camera_t[k] - self.camera_t[start])))
+        return 1e3 * worst
 
     def summary(self) -> dict:
         """The run's JSON summary: convergence from ground truth, occlusion behaviour, stage timings.
@@ -132,7 +159,7 @@ class RunStats:
             if run >= config.hold_steps:
                 steps_to_converge = i - config.hold_steps + 1
                 break
-        held = bool(n >= config.hold_steps and below[n - config.hold_steps:].all())
+        held = bool(n >= config.hold_steps and below[n - config.hold_steps:].all() and self.aborted is None)
         occ = self.occlusion[:n]
         evaluated = bool(np.all(np.isfinite(occ)))
         occluded = occ > 0  # NaN (not evaluated) counts as not occluded; the occlusion figures are then None
@@ -178,8 +205,15 @@ class RunStats:
             "converged": steps_to_converge is not None,
             # the bounds met over the run's last hold_steps steps (`converged`: met for hold_steps steps at some point)
             "held_to_end": held,
-            "not_converged_because": None if held else self._why_not(err[-1], ctrl_pose[-1]),
+            "not_converged_because": (None if held else f"aborted: {self.aborted}" if self.aborted
+                                      else self._why_not(err[-1], ctrl_pose[-1])),
             "initial_pose_error_mm": float(np.linalg.norm(self.first.pose_error[:3])),
+            # the safety rule (LoopConfig.safety): why the episode was ended early, the steps it held the arm and why
+            "aborted": self.aborted,
+            "held_steps": self.held,
+            "held_because": dict(sorted(self.held_because.items())),
+            "runaway": bool(self.aborted is not None or (np.linalg.norm(final.pose_error[:3])
+                                                          - np.linalg.norm(self.first.pose_error[:3])) > RUNAWAY_MM),
             "initial_pose_error_deg": float(np.linalg.norm(self.first.pose_error[3:])),
             **self._occlusion_figures(),
             "steps_to_converge": steps_to_converge,

@@ -70,6 +70,7 @@ class ServoBenchConfig:
     height: int = 480
     tilt_deg: float = TILT_MAX_DEG  # start poses' pitch and yaw bound (0: the 4-DOF distribution)
     suite: str | None = None  # the versioned suite these settings are (bench/suites.py), recorded with the results
+    safety: bool = True  # LoopConfig.safety enabled (False: the loop without the safety rule, an ablation)
 
     def __post_init__(self):
         from hvs_sim import plugins
@@ -155,6 +156,11 @@ class ServoBenchConfig:
 def _median_or_none(values) -> float | None:
     vals = [v for v in values if v is not None]
     return float(np.median(vals)) if vals else None
+
+
+def _max_or_none(values) -> float | None:
+    values = [v for v in values if v is not None]
+    return float(np.max(values)) if values else None
 
 
 def _split_top(text: str, sep: str) -> tuple[str, str]:
@@ -274,11 +280,12 @@ def episode_start(scen_name: str, seed: int, tilt: float = TILT_MAX, **overrides
 def _episode(args):
     from hvs_sim import plugins
     from hvs_sim.control.ibvs import IBVSConfig
+    from hvs_sim.control.safety import SafetyConfig
     from hvs_sim.runner import run_episode
     from hvs_sim.scene.scenarios import CameraConfig
 
     (scen_name, method, seed, steps, extra, keep, camera, people, damping, template_from, inset, goal_frames, alpha,
-     size, tilt, run_as, arm, near_goal, near_goal_scale) = args
+     size, tilt, run_as, arm, near_goal, near_goal_scale, safety) = args
     episode_threads()
     started = time.perf_counter()
     tracker, warp, controller, policy = parse_method(run_as)
@@ -292,7 +299,8 @@ def _episode(args):
                              roi_inset_px=inset, goal_frames=goal_frames if goal_template else None,  # with a goal image
                              feature_filter=alpha if tracked else None,  # ... and with tracked corners
                              near_goal_inset_px=near_goal,  # the scale where the loop's switch can use it
-                             near_goal_scale=near_goal_scale if takes_near_goal_scale(tracker, warp, template_from) else None)
+                             near_goal_scale=near_goal_scale if takes_near_goal_scale(tracker, warp, template_from) else None,
+                             safety=SafetyConfig(enabled=safety))
     drawn = time.perf_counter()
     summary, records = run_episode(scen, tracker, loop_config, progress=False, keep_records=keep,
                                    tracker_settings={"warp": warp} if warp else None)
@@ -338,6 +346,14 @@ def method_results(eps: list[dict], success_px: float) -> dict:
         "final_error_px": median_ci([e["final_error_px"] for e in eps]),
         "max_final_pose_error_mm": float(np.max([e["final_pose_error_mm"] for e in eps])),
         "max_final_pose_error_deg": float(np.max([e["final_pose_error_deg"] for e in eps])),
+        "p95_final_pose_error_mm": float(np.percentile([e["final_pose_error_mm"] for e in eps], 95)),
+        "p95_final_pose_error_deg": float(np.percentile([e["final_pose_error_deg"] for e in eps], 95)),
+        # the safety rule (control/safety.py; records before it have none of these: counted as none)
+        "runaways": int(sum(bool(e.get("runaway")) for e in eps)),
+        "aborted": int(sum(e.get("aborted") is not None for e in eps)),
+        "mean_held_steps": float(np.mean([e.get("held_steps", 0) for e in eps])),
+        "max_drift_while_hidden_mm": median_ci([e.get("max_drift_while_hidden_mm") for e in eps]),
+        "worst_drift_while_hidden_mm": _max_or_none([e.get("max_drift_while_hidden_mm") for e in eps]),
         "controlled_dofs": eps[0]["controlled_dofs"],
         "median_camera_path_m": float(np.median([e["camera_path_m"] for e in eps])),
         "episodes_target_left_view": int(sum(e["target_out_of_view_steps"] > 0 for e in eps)),
@@ -385,7 +401,7 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True, 
     jobs = [(s, t, seed, config.steps, config.extra_steps, seed == seeds[0], config.camera, config.people, config.damping,
              config.template_from, config.roi_inset_px, config.goal_frames, config.feature_filter,
              (config.width, config.height), np.radians(config.tilt_deg), run_as[t], config.arm,
-             config.near_goal_inset_px, config.near_goal_scale)
+             config.near_goal_inset_px, config.near_goal_scale, config.safety)
             for s in config.scenarios for t in config.trackers for seed in seeds]
     episodes, traces, ran = {}, {}, []
     wall = time.perf_counter()
@@ -443,6 +459,18 @@ def _help(r: dict) -> str:
     return f"none: {r['near_goal_off']}" if r.get("near_goal_off") else "none"
 
 
+def _runaways(r: dict) -> str:
+    n, aborted = r.get("runaways", 0), r.get("aborted", 0)
+    return f"{n} ({aborted} aborted)" if aborted else str(n)
+
+
+def _drift(r: dict) -> str:
+    d = r.get("max_drift_while_hidden_mm")
+    if not d or d["median"] is None:
+        return "–"
+    return f"{d['median']:.1f}, {r['worst_drift_while_hidden_mm']:.1f}"
+
+
 def servo_table(summary: dict, config: ServoBenchConfig) -> str:
     from hvs_sim.bench.stats import RULES
 
@@ -454,21 +482,29 @@ def servo_table(summary: dict, config: ServoBenchConfig) -> str:
     lines += [f"- **{rule}**: {text}" for rule, text in RULES.items()]
     lines += [("- **reached**: the hvs_sim bounds held for hold_steps steps at some point (an episode may then drift "
               "out; only `hvs_sim` counts it as a success when it ends within them)"), "",
+              ("- **runaways**: episodes whose camera ended more than 50 mm further from the goal than it started, or "
+               "that the workspace envelope stopped (aborted); must read 0"),
+              ("- **camera drift while hidden**: how far the camera moved while the target was ≥ 50 % hidden, median "
+               "and worst episode; **held**: steps the safety rule held the arm, mean per episode"), "",
               "DOFs: the DOFs each method commands. Medians with bootstrap 95 % intervals.", ""]
     for s, per in summary["results"].items():
         lines += [f"## {s}", "",
-                  ("| method | DOFs | hvs_sim | CNS | Felton | ViSP | reached | final pose error (mm) | final pose error (°) "
-                  "| final image error (px) | max error in occlusion (px) | re-acquired | time to re-acquire (s) "
-                  "| drift while hidden (px) | faults | steps/s | the loop's help near the goal |"),
-                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+                  ("| method | DOFs | hvs_sim | CNS | Felton | ViSP | reached | runaways | final pose error (mm) "
+                  "| p95 (mm) | final pose error (°) | p95 (°) | final image error (px) | max error in occlusion (px) "
+                  "| re-acquired | time to re-acquire (s) | tracker drift while hidden (px) "
+                  "| camera drift while hidden (mm): median, worst | held (steps) | faults | steps/s "
+                  "| the loop's help near the goal |"),
+                  "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for t, r in per.items():
             occ = _fmt(r["median_max_error_during_occlusion_px"], ".1f")
             lines.append(
                 f"| {t} | {len(r['controlled_dofs'])} | " + " | ".join(_pct_ci(r["success"][k]) for k in RULES)
-                + f" | {_pct_ci(r['reached'])} | {_med_ci(r['final_pose_error_mm'], '.1f')} | "
-                f"{_med_ci(r['final_pose_error_deg'], '.2f')} | {_med_ci(r['final_error_px'], '.2f')} | {occ} | "
+                + f" | {_pct_ci(r['reached'])} | {_runaways(r)} | {_med_ci(r['final_pose_error_mm'], '.1f')} | "
+                f"{_fmt(r.get('p95_final_pose_error_mm'), '.1f')} | {_med_ci(r['final_pose_error_deg'], '.2f')} | "
+                f"{_fmt(r.get('p95_final_pose_error_deg'), '.2f')} | {_med_ci(r['final_error_px'], '.2f')} | {occ} | "
                 f"{_pct_ci(r['reacquired'])} | {_med_ci(r['seconds_to_reacquire'], '.2f')} | "
-                f"{_med_ci(r['max_tracker_error_while_hidden_px'], '.1f')} | {r['fault_steps']} in "
+                f"{_med_ci(r['max_tracker_error_while_hidden_px'], '.1f')} | {_drift(r)} | "
+                f"{r.get('mean_held_steps', 0):.0f} | {r['fault_steps']} in "
                 f"{r['fault_episodes']} ep. | {r['steps_per_second']:.1f} | {_help(r)} |")
         lines.append("")
     notes = sorted({e["tracker_contract"] for e in summary["episodes"] if e.get("tracker_contract")})

@@ -30,7 +30,7 @@ def _check_bench_options(args) -> None:
                         ("--template-from", args.template_from), ("--roi-inset", args.roi_inset),
                         ("--near-goal-inset", args.near_goal_inset), ("--near-goal-scale", args.near_goal_scale),
                         ("--goal-frames", args.goal_frames), ("--feature-filter", args.feature_filter),
-                        ("--extra-steps", args.extra_steps)):
+                        ("--extra-steps", args.extra_steps), ("--safety", args.safety)):
         if value is not None:
             raise ConfigError(f"{flag} applies to `bench servo` only")
     if args.imagery == "natural":
@@ -282,6 +282,8 @@ def _cmd_bench_sim(args) -> int:
                            ("extra_steps", "extra_steps"), ("arm", "arm")):  # servo-only settings the user gave
             if getattr(args, opt) is not None:
                 given[field] = getattr(args, opt)
+        if args.safety is not None:
+            given["safety"] = args.safety == "on"
         suite = getattr(args, "suite_obj", None)
         if suite is not None:
             from hvs_sim.bench.suites import TILT_MAX_DEG
@@ -365,6 +367,9 @@ def add_bench_parser(sub) -> None:
     p.add_argument("--near-goal-scale", type=float, default=None, metavar="S",
                    help="servo only: the working scale of the tracker on the near-goal template (as `run "
                         "--near-goal-scale`)")
+    p.add_argument("--safety", choices=("on", "off"), default=None,
+                   help="servo only: the loop's safety rule (hold while it does not see, the workspace envelope; "
+                        "default on; off: an ablation, never a servo to run on a robot)")
     p.add_argument("--goal-frames", type=int, default=None, metavar="N",
                    help=f"servo only: frames averaged into the goal image (as `run --goal-frames`; default {GOAL_FRAMES} with a goal "
                         "template)")
