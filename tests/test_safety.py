@@ -210,3 +210,13 @@ def test_the_blackout_scenario_hides_the_target_for_ten_seconds_near_the_goal():
     (plan,) = sc.occluders
     assert plan.kind == "pause" and plan.pause_s == 10.0
     assert plan.t_cross - plan.pause_s / 2 < 3.0 < plan.t_cross + plan.pause_s / 2 + 1.0 < sc.duration
+
+
+def test_camera_drift_while_hidden_is_measured_from_where_each_hidden_stretch_began():
+    from hvs_sim.runstats import RunStats
+
+    stats = RunStats(LoopConfig(steps=8))
+    stats.camera_t[:8] = [[0, 0, 0], [0.05, 0, 0], [0.05, 0.001, 0], [0.05, 0.004, 0], [0.2, 0, 0], [0.2, 0, 0],
+                          [0.2, 0.002, 0], [0.3, 0, 0]]
+    hidden = np.array([False, True, True, True, False, True, True, False])
+    assert stats._drift_while_hidden_mm(hidden) == pytest.approx(4.0)

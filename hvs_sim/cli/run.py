@@ -70,12 +70,18 @@ def cmd_run(args) -> int:
                                      "final_controlled_pose_error_mm", "final_controlled_pose_error_deg",
                                      "controlled_dofs",
                                      "max_error_px_during_occlusion", "lost_steps", "predict_steps", "fault_steps",
-                                     "steps_per_second")}
+                                     "held_steps", "steps_per_second")}
     print(json.dumps(brief, indent=2))
     if not summary["held_to_end"]:
         print(f"not converged at the end: {summary['not_converged_because']}")
     if "recording_error" in summary:
         print(f"hvs-sim: {summary['recording_error']}", file=sys.stderr)
+    if summary["held_steps"]:
+        why = ", ".join(f"{n} {k}" for k, n in summary["held_because"].items())
+        print(f"the safety rule held the arm for {summary['held_steps']} step(s) while it could not trust what it saw "
+              f"({why})")
+    if summary["aborted"]:
+        print(f"aborted: {summary['aborted']}")
     if summary["faults"]:
         print(f"{summary['fault_steps']} step(s) faulted, the arm held for them: " + "; ".join(summary["faults"][:3]))
     if args.json:
