@@ -14,7 +14,8 @@ import numpy as np
 
 from hvs_sim.errors import OutputError
 from hvs_sim.outputs import record, settle, temporary_beside, write_atomic, write_image, write_with
-from hvs_sim.render.renderer import GroundTruth, Renderer
+from hvs_sim.render.renderer import Renderer
+from hvs_sim.render.truth import GroundTruth
 from hvs_sim.scene.scenarios import Scenario
 from hvs_sim.scene.world import Scene
 
