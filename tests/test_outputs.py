@@ -348,6 +348,7 @@ def test_budget_figure_onto_a_full_disk(tmp_path, capsys, full_disk):
 
 def test_sweep_lock_onto_a_full_disk(tmp_path, capsys, monkeypatch):
     from hvs_sim import sweep
+    from hvs_sim.sweep import run as sweep_run
 
     class Full:
         def __init__(self, *a, **k):
@@ -367,7 +368,7 @@ def test_sweep_lock_onto_a_full_disk(tmp_path, capsys, monkeypatch):
         def close(self):
             pass
 
-    monkeypatch.setattr(sweep, "open", Full, raising=False)
+    monkeypatch.setattr(sweep_run, "open", Full, raising=False)  # the lock's (sweep/run.py)
     spec = sweep.parse_spec('kind = "servo"\n[axes]\ntracker = ["ground_truth"]\n')
     with pytest.raises(OutputError, match=r"\.sweep\.lock .No space left"):
         sweep.run_sweep(spec, tmp_path / "o", progress=False)
