@@ -44,7 +44,7 @@ def run_tracker(method: str, seq: Sequence) -> dict[str, np.ndarray]:
     tracker.init(seq.frames[0], seq.roi)
     gt = seq.gt_track
     err, ms, mode, occ_est = [0.0], [0.0], ["init"], [0.0]
-    from hvs_sim.plugins import ExternalTracker
+    from hvs_sim.external import ExternalTracker
 
     # an outside tracker's failure on a frame is recorded (its estimate held, the frame counted lost); a built-in's
     # is a bug, and raises
