@@ -11,7 +11,8 @@ from hvs_sim.cli.common import HelpFormatter, _target_overrides, stop_reason
 from hvs_sim.cli.run import cmd_run
 from hvs_sim.cliargs import DEFAULT_TRACKER, near_goal_inset
 from hvs_sim.errors import ConfigError
-from hvs_sim.outputs import MANIFEST_NAME, fresh_out_dir, prepare_out_dir, write_atomic
+from hvs_sim.manifest import MANIFEST_NAME
+from hvs_sim.outputs import fresh_out_dir, prepare_out_dir, write_atomic
 from hvs_sim.scene.arms import DEFAULT_ARM
 
 DEMO_OUTPUTS = ("run.json", "run_steps.csv", "run.rrd", "frames.png", "error.png")  # what `hvs-sim demo` writes

@@ -13,7 +13,8 @@ import cv2
 import numpy as np
 
 from hvs_sim.errors import OutputError
-from hvs_sim.outputs import record, settle, temporary_beside, write_atomic, write_image, write_with
+from hvs_sim.manifest import record
+from hvs_sim.outputs import settle, temporary_beside, write_atomic, write_image, write_with
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.render.truth import GroundTruth
 from hvs_sim.scene.scenarios import Scenario
