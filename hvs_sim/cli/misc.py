@@ -3,12 +3,13 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from pathlib import Path
 
 from hvs_sim.cli.common import HelpFormatter, _target_overrides, stop_reason
-from hvs_sim.cli.run import cmd_run
+from hvs_sim.cli.run import add_run_parser, cmd_run
 from hvs_sim.cliargs import DEFAULT_TRACKER, near_goal_inset
 from hvs_sim.errors import ConfigError
 from hvs_sim.manifest import MANIFEST_NAME
@@ -114,10 +115,10 @@ def cmd_dataset(args) -> int:
 
 
 def cmd_demo(args) -> int:
-    from hvs_sim.cli import build_parser  # the package's: it gathers every command module, this one included
     from hvs_sim.outputs import check_replaceable
 
-    parser = build_parser()
+    parser = argparse.ArgumentParser(prog="hvs-sim")  # `run` alone: the demo is a run with fixed options
+    add_run_parser(parser.add_subparsers(dest="command", required=True))
     out = prepare_out_dir(args.out)
     run_args = parser.parse_args(["run", "--scenario", "walk_by", "--tracker", DEFAULT_TRACKER, "--seed", "0",
                                   "--steps", "240", "--json", str(out / "run.json"), "--rrd", str(out / "run.rrd"),
