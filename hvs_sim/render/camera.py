@@ -12,7 +12,6 @@ import cv2
 import numpy as np
 
 from hvs_sim.camera_model import distort_points, undistort_points
-from hvs_sim.geometry import mujoco_to_opencv
 
 
 def intrinsics(width: int, height: int, fovy_deg: float) -> np.ndarray:
@@ -27,10 +26,6 @@ class CameraPose:
 
     R: np.ndarray
     t: np.ndarray
-
-    @staticmethod
-    def from_mujoco(xpos: np.ndarray, xmat: np.ndarray) -> CameraPose:
-        return CameraPose(R=mujoco_to_opencv(xmat), t=np.asarray(xpos, float).copy())
 
     def to_camera(self, points_world: np.ndarray) -> np.ndarray:
         return (np.atleast_2d(np.asarray(points_world, float)) - self.t) @ self.R
