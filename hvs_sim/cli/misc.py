@@ -144,8 +144,8 @@ def add_train_parser(sub) -> None:
 
 
 def add_budget_parser(sub) -> None:
-    from hvs_sim.camera_model import SENSOR_NAMES
     from hvs_sim.scene.arms import ARM_NAMES
+    from hvs_sim.sensor import SENSOR_NAMES
 
     p = sub.add_parser("budget", formatter_class=HelpFormatter,
                        help="what accuracy 6-DOF servoing can reach: the Cramér–Rao bound on the camera's pose at the "
@@ -180,8 +180,8 @@ def add_demo_parser(sub) -> None:
 
 def add_dataset_parser(sub) -> None:
     from hvs_sim.bench.dataset import DATASET_ID, DATASET_OBS_MODES, DatasetConfig
-    from hvs_sim.camera_model import SENSOR_NAMES
     from hvs_sim.scene.scenarios import SCENARIO_NAMES
+    from hvs_sim.sensor import SENSOR_NAMES
 
     d = DatasetConfig()
     p = sub.add_parser("dataset", formatter_class=HelpFormatter,

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from hvs_sim.camera_model import BLUR_STEP_PX, FIELD_MAX_TAPS
 from hvs_sim.render.camera import CameraPose, project
+from hvs_sim.sensor import BLUR_STEP_PX, FIELD_MAX_TAPS
 
 FIELD_STRIDE = 2  # the paths are found every this many pixels and interpolated between (the field is smooth but at
 # depth edges, where the gather is approximate anyway): a quarter of the arithmetic

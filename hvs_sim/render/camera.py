@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from hvs_sim.camera_model import distort_points, undistort_points
+from hvs_sim.sensor import distort_points, undistort_points
 
 
 def intrinsics(width: int, height: int, fovy_deg: float) -> np.ndarray:

@@ -1,6 +1,6 @@
 """RGB and segmentation renders of the eye camera, and exact per-frame ground truth.
 
-RGB frames go through the scenario's camera model (`hvs_sim.camera_model`): motion blur (along the image motion
+RGB frames go through the scenario's camera model (`hvs_sim.sensor`): motion blur (along the image motion
 field of one render, `hvs_sim.render.blur`, or from sub-frame renders over the exposure), lens distortion, auto-exposure, sensor noise, JPEG. Ground
 truth comes from geometry only; with lens distortion it is projected through the same model.
 """
@@ -16,15 +16,6 @@ import numpy as np
 from dm_control.mujoco import engine
 from dm_control.mujoco.wrapper import core as mj_core
 
-from hvs_sim.camera_model import (
-    STILL_STREAM,
-    SensorState,
-    decode,
-    distort_points,
-    distortion_maps,
-    encode,
-    light_scale,
-)
 from hvs_sim.gl import check_not_forked_after_rendering, note_rendering
 from hvs_sim.render.blur import (
     FIELD_STRIDE,
@@ -41,6 +32,15 @@ from hvs_sim.render.camera import CameraPose, intrinsics, project, transfer_poin
 from hvs_sim.render.truth import GroundTruth, boxes_may_cover, count_inside, outline_box
 from hvs_sim.scene.parts import OCCLUDER_GROUP, TARGET_GROUP
 from hvs_sim.scene.world import Scene
+from hvs_sim.sensor import (
+    STILL_STREAM,
+    SensorState,
+    decode,
+    distort_points,
+    distortion_maps,
+    encode,
+    light_scale,
+)
 from hvs_sim.validate import check_number
 
 MAX_STILL_FRAMES = 256  # still_average: more frames than a user would grab at the goal
@@ -329,7 +329,7 @@ class Renderer:
         """The mean of `n` frames of the scene held still (uint8 RGB), as a user teaching a goal image grabs a
         few frames at the goal and averages them: the camera's noise, which a single frame freezes into a
         template, falls by ~√n (with the JPEG artefacts it causes; those of the clean picture stay). Each frame
-        has its own noise (camera_model.STILL_STREAM, apart from the episode's frames). The `ideal` camera's
+        has its own noise (sensor.STILL_STREAM, apart from the episode's frames). The `ideal` camera's
         frames are all the same render."""
         check_number("still frames", n, 1, MAX_STILL_FRAMES, integer=True)
         if self._ideal:
@@ -340,7 +340,7 @@ class Renderer:
         return np.rint(acc / np.float32(n)).astype(np.uint8)
 
     def still_frames(self, n: int) -> Iterator[np.ndarray]:
-        """`n` frames (uint8 RGB) of the scene held still, each with its own noise (camera_model.STILL_STREAM), as
+        """`n` frames (uint8 RGB) of the scene held still, each with its own noise (sensor.STILL_STREAM), as
         still_average averages them: what a tracker sees frame by frame from a camera that does not move."""
         check_number("still frames", n, 1, MAX_STILL_FRAMES, integer=True)
         return self._still_frames(n)

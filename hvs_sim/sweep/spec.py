@@ -31,8 +31,8 @@ def _loop_fields() -> dict[str, str]:
 
 
 def _common_keys() -> dict[str, object]:
-    from hvs_sim.camera_model import SENSOR_NAMES
     from hvs_sim.scene.scenarios import PEOPLE_STYLES, SCENARIO_NAMES
+    from hvs_sim.sensor import SENSOR_NAMES
 
     return {"tracker": None, "scenario": SCENARIO_NAMES, "camera": SENSOR_NAMES, "people": PEOPLE_STYLES,
             "seed": "int>=0", "width": "image", "height": "image"}
