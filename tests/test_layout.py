@@ -96,3 +96,24 @@ def test_no_module_is_too_long():
     long = {p: n for p, n in lengths.items() if n > MAX_LINES and p not in LONG_MODULES}
     assert not long, f"modules over {MAX_LINES} lines: {long}; split them along what their parts are for"
     assert set(LONG_MODULES) <= set(lengths), "LONG_MODULES names a module that is gone: take it off the list"
+
+
+def test_every_public_name_resolves_and_import_stays_light():
+    import subprocess
+    import sys
+
+    import hvs_sim
+
+    eager = {"ConfigError", "HvsError", "InputError", "OutputError", "RenderError", "StateError", "WeightsError",
+             "__version__"}
+    assert set(hvs_sim.__all__) == eager | set(hvs_sim._LAZY) and len(hvs_sim.__all__) == len(set(hvs_sim.__all__))
+    assert set(hvs_sim.__all__) <= set(dir(hvs_sim))
+    # a fresh interpreter: importing the package loads none of the lazy names' modules (nor MuJoCo or torch)
+    heavy = sorted({*hvs_sim._LAZY.values(), "mujoco", "torch"})
+    code = f"import sys, hvs_sim; print([m for m in {heavy!r} if m in sys.modules])"
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "[]"
+    for name in hvs_sim.__all__:
+        assert getattr(hvs_sim, name) is not None, name
+    from hvs_sim import ServoLoop, register_tracker  # from-imports go through __getattr__ too
+
+    assert ServoLoop.__module__ == "hvs_sim.loop" and register_tracker.__module__ == "hvs_sim.plugins"
