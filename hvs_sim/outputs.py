@@ -68,7 +68,7 @@ def discard_pending() -> None:
     _pending.clear()
 
 
-def shown_name(path) -> Path:
+def shown_name(path) -> Path | None:
     """The file the user asked for, where `path` is one of this command's temporaries (temporary_beside)."""
     if path is None:
         return path

@@ -52,7 +52,9 @@ def camera_motion(cam_mid: Rigid, cam_then: Rigid, body_mid: Rigid | None = None
                   body_then: Rigid | None = None) -> np.ndarray:
     """4×4 map from mid-exposure camera coordinates to the camera coordinates of another instant, of a point fixed
     in the world (no body) or riding on a body that moved from body_mid to body_then."""
-    world = np.eye(4) if body_mid is None else body_then.matrix() @ np.linalg.inv(body_mid.matrix())
+    # body_then comes with body_mid
+    world = np.eye(4) if body_mid is None else \
+        body_then.matrix() @ np.linalg.inv(body_mid.matrix())  # type: ignore[union-attr]
     return np.linalg.inv(cam_then.matrix()) @ world @ cam_mid.matrix()
 
 
@@ -95,7 +97,8 @@ def displacement(u_start: np.ndarray, u_end: np.ndarray, shape: tuple[int, int],
     if stride > 1:
         xs, ys = np.meshgrid(np.arange(shape[1], dtype=np.float32) / stride,
                              np.arange(shape[0], dtype=np.float32) / stride)
-        v = cv2.remap(v, xs, ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        # float32 in, float32 out (OpenCV's stubs widen the dtype)
+        v = cv2.remap(v, xs, ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)  # type: ignore[assignment]
     return v
 
 

@@ -34,6 +34,7 @@ from hvs_sim.scene.parts import OCCLUDER_GROUP, TARGET_GROUP
 from hvs_sim.scene.world import Scene
 from hvs_sim.sensor import (
     STILL_STREAM,
+    SensorModel,
     SensorState,
     decode,
     distort_points,
@@ -57,6 +58,8 @@ SCENE_VIEW_DISTANCE = 2.6  # ... this many camera-to-target distances away
 class Renderer:
     """Renders the scene's eye camera. Segmentation renders give the exact occlusion fraction."""
 
+    _view: engine.MovableCamera  # scene_view's camera, set at its first call (absent before)
+
     def __init__(self, scene: Scene, people: bool = True, noise_seed: int | None = None):
         """people=False: the people are left out of the RGB frames (a capture of the clear scene, such as
         the goal image a user takes before servoing); ground truth and segmentation are unchanged.
@@ -75,7 +78,7 @@ class Renderer:
         self._show_people.geomgroup[OCCLUDER_GROUP] = 1
         self._hide_people = mj_core.MjvOption()
         self._hide_people.geomgroup[OCCLUDER_GROUP] = 0
-        self.sensor = cam.sensor
+        self.sensor: SensorModel = cam.sensor  # type: ignore[assignment]  # CameraConfig resolves a preset name
         self._ideal = self.sensor.is_ideal  # frozen: checked once, not per frame
         self._noise_seed = None if noise_seed is None else int(noise_seed)
         self._state = None if self._ideal else SensorState(self.sensor, self.noise_seed, (self.height, self.width))
@@ -144,7 +147,9 @@ class Renderer:
             self._state = SensorState(self.sensor, self.noise_seed, (self.height, self.width))  # a new episode
         linear = self._exposure()
         t1 = time.perf_counter()
-        frame = self._state.capture(linear, scene.frame_index, scene.time, 1.0 / scene.scenario.fps)
+        # _state is None only for the ideal camera, whose frames return before
+        frame = self._state.capture(  # type: ignore[union-attr]
+            linear, scene.frame_index, scene.time, 1.0 / scene.scenario.fps)
         self.stage_ms = {"light": 1e3 * (t1 - t0), "sensor": 1e3 * (time.perf_counter() - t1)}
         self._last = (key, frame)
         return frame.copy()
@@ -189,7 +194,7 @@ class Renderer:
             return linear
         offsets = self.sensor.exposure_offsets(samples)
         self.blur_samples = len(offsets)
-        linear = None
+        linear = None  # type: ignore[assignment]  # the first sub-frame's render replaces it
         try:
             for dt in offsets:
                 with scene.rewound(float(dt)):
@@ -354,7 +359,8 @@ class Renderer:
         scene = self.scene
         linear = self._exposure()  # nothing moves between the frames: one exposure, n captures
         for k in range(n):
-            yield self._state.capture(linear, k, scene.time, 1.0 / scene.scenario.fps, stream=STILL_STREAM)
+            yield self._state.capture(linear, k, scene.time, 1.0 / scene.scenario.fps,  # type: ignore[union-attr]
+                                      stream=STILL_STREAM)  # (not ideal: returned above)
 
     @property
     def noise_seed(self) -> int:
@@ -473,11 +479,12 @@ class Renderer:
         visible = full = 0
         occ = float("nan")
         outline = self.target_outline(pose, corners_w) if occlusion else None
-        if occlusion and not counts and not self.people_may_cover_target(pose, outline):
-            visible = full = None
+        # outline is set whenever occlusion is
+        if occlusion and not counts and not self.people_may_cover_target(pose, outline):  # type: ignore[arg-type]
+            visible = full = None  # type: ignore[assignment]  # not counted (GroundTruth's None)
             occ = 0.0
         elif occlusion:
-            visible, full = self.occlusion_counts(outline)
+            visible, full = self.occlusion_counts(outline)  # type: ignore[arg-type]
             occ = 1.0 - visible / full if full > 0 else 1.0
         return GroundTruth(
             frame=self.scene.frame_index, time=self.scene.time, center=center, corners=corners,

@@ -83,9 +83,9 @@ def _into_limits(scratch, rig, q, position, quat, lo, hi, steps: int = IK_LIMIT_
     span = np.where(np.isfinite(hi - lo), hi - lo, 2 * np.pi)
     inside_lo, inside_hi = lo + IK_LIMIT_INSET, hi - IK_LIMIT_INSET
     jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
-    target_R = np.zeros(9)
-    mujoco.mju_quat2Mat(target_R, np.asarray(quat, float))
-    target_R = target_R.reshape(3, 3)
+    flat_R = np.zeros(9)
+    mujoco.mju_quat2Mat(flat_R, np.asarray(quat, float))
+    target_R = flat_R.reshape(3, 3)
 
     def pose_error() -> np.ndarray:  # (position; rotation vector, small angles) from the site to the target pose
         R = d.site_xmat[site].reshape(3, 3)

@@ -35,6 +35,8 @@ def wall_pictures(scenario: Scenario) -> tuple[str | np.ndarray, list | None]:
     The wall's textures change with the seed (a new set of posters per benchmark seed); a flag wall
     is the same for every seed, as before.
     """
+    target: str | np.ndarray
+    others: list[str | np.ndarray]
     if scenario.target_image:
         target = load_image(scenario.target_image, "target image", max_aspect=TARGET_MAX_ASPECT)
         height = scenario.target_width * target.shape[0] / target.shape[1]
