@@ -1,6 +1,6 @@
-# Two entry points: `make demo` (set up + main demo) and `make test` (set up + lint + results check + tests).
-# The demo's set-up installs the package and what it runs on; the test tools (pytest, hypothesis, Ray, ruff, the
-# test plugins) only come with `make test`.
+# Two entry points: `make demo` (set up + main demo) and `make test` (set up + lint + types + results check + tests).
+# The demo's set-up installs the package and what it runs on; the test tools (pytest, hypothesis, Ray, ruff, mypy,
+# the test plugins) only come with `make test`.
 VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
@@ -37,6 +37,8 @@ demo: $(STAMP)
 
 test: $(TEST_STAMP)
 	$(VENV)/bin/ruff check .
+	# types of the core packages ([tool.mypy] in pyproject.toml says which)
+	$(VENV)/bin/mypy
 	# the headline tables of README and docs/results.md against the records they cite
 	$(VENV)/bin/hvs-sim results check
 	$(PY) -m pytest tests

@@ -64,10 +64,10 @@ def _():
 
 @part("render")
 def _():
-    from hvs_sim.camera_model import sensor_preset
     from hvs_sim.render.renderer import Renderer
     from hvs_sim.scene.scenarios import CameraConfig, make_scenario
     from hvs_sim.scene.world import Scene
+    from hvs_sim.sensor import sensor_preset
     rows = {}
     for preset in ("ideal", "webcam", "phone_handheld", "robot_cell", "low_light"):
         scene = Scene(make_scenario("walk_by", mount="handheld", camera=CameraConfig(sensor=sensor_preset(preset))))

@@ -124,7 +124,7 @@ def tracker_in_loop(steps: int, tmp: Path) -> dict:
 
 def preset_costs(frames: int) -> dict:
     """Mean ms of an RGB frame through each camera preset (bench_render's interleaved timing), its ratio to `ideal`'s."""
-    from hvs_sim.camera_model import SENSOR_NAMES
+    from hvs_sim.sensor import SENSOR_NAMES
 
     out, _ = time_presets({name: (name, None) for name in SENSOR_NAMES}, frames)
     out["realistic_mean_ratio_to_ideal"] = float(np.mean([p["ratio_to_ideal"] for n, p in out.items()

@@ -21,11 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
-from hvs_sim.camera_model import BLUR_MODES, SENSOR_NAMES, sensor_preset
 from hvs_sim.outputs import save_figure
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import SUPERSAMPLE_CHOICES, CameraConfig, make_scenario
 from hvs_sim.scene.world import Scene
+from hvs_sim.sensor import BLUR_MODES, SENSOR_NAMES, sensor_preset
 
 FIGURE_FRAMES = (40, 78)  # walk_by hand-held seed 0: the camera drifting, and the person's edge crossing the target
 CROP = (slice(150, 330), slice(300, 540))  # a zoom on the target and the person's edge

@@ -6,8 +6,8 @@ that their ratio holds on a busy machine:
     python experiments/bench_sensor.py --before /tmp/before/hvs_sim/camera_model.py \
         --json experiments/results/sensor_speed.json
 
-The older camera_model.py is loaded from its path under another module name (it imports only hvs_sim.errors). Each
-preset is timed with torch on 1 and on 2 threads (the older sensor's arithmetic ran in torch; the closed loop sets 2).
+The older sensor module (sensor.py; camera_model.py before its rename) is loaded from its path under another module
+name (it imports only hvs_sim.errors). Each preset is timed with torch on 1 and on 2 threads (the older sensor's arithmetic ran in torch; the closed loop sets 2).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from hvs_sim import camera_model
+from hvs_sim import sensor
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import make_scenario
 from hvs_sim.scene.world import Scene
@@ -44,14 +44,14 @@ def lights() -> list[np.ndarray]:
     out = []
     for k in range(max(LIGHT_FRAMES) + 1):
         if k in LIGHT_FRAMES:
-            out.append(camera_model.decode(r.rgb()))
+            out.append(sensor.decode(r.rgb()))
         r.scene.advance()
     return out
 
 
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("--before", required=True, help="an older hvs_sim/camera_model.py")
+    ap.add_argument("--before", required=True, help="an older hvs_sim/sensor.py (hvs_sim/camera_model.py before its rename)")
     ap.add_argument("--calls", type=int, default=40, help="captures of each package per preset and thread count")
     ap.add_argument("--json", default="experiments/results/sensor_speed.json")
     args = ap.parse_args()
@@ -61,7 +61,7 @@ def main() -> None:
         torch.set_num_threads(threads)
         for name in ("webcam", "phone_handheld", "robot_cell", "low_light"):
             states = {"before": before.SensorState(before.sensor_preset(name), 0, light[0].shape[:2]),
-                      "after": camera_model.SensorState(camera_model.sensor_preset(name), 0, light[0].shape[:2])}
+                      "after": sensor.SensorState(sensor.sensor_preset(name), 0, light[0].shape[:2])}
             ms = {k: [] for k in states}
             for call in range(args.calls):
                 for label in (("before", "after") if call % 2 else ("after", "before")):

@@ -22,11 +22,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from hvs_sim.camera_model import SensorState, encode, output_variance, sensor_preset
 from hvs_sim.outputs import save_figure
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 from hvs_sim.scene.world import Scene
+from hvs_sim.sensor import SensorState, encode, output_variance, sensor_preset
 
 LEVELS = np.round(np.geomspace(0.03, 0.9, 12), 4)  # linear radiance of the flat fields
 FLAT_SIZE = (240, 320)  # one flat field: 230 400 samples a level and preset

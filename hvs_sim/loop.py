@@ -15,7 +15,6 @@ import numpy as np
 import torch
 
 from hvs_sim import plugins
-from hvs_sim.camera_model import distort_points, undistort_points
 from hvs_sim.control.arm import ArmDriver, JointCommand
 from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA, FeatureFilter
 from hvs_sim.control.ibvs import (
@@ -57,6 +56,7 @@ from hvs_sim.render.renderer import MAX_STILL_FRAMES, Renderer
 from hvs_sim.runstats import MODES, RunStats, summarize_run  # noqa: F401  (re-exported: the loop's summary)
 from hvs_sim.scene.scenarios import Scenario
 from hvs_sim.scene.world import Scene
+from hvs_sim.sensor import distort_points, undistort_points
 from hvs_sim.tracking import TRACKER_NAMES, Track, Tracker, make_tracker
 from hvs_sim.tracking.frames import MIN_ROI, inset_roi, roi_corners, roi_from_corners
 from hvs_sim.tracking.warp import apply as apply_warp

@@ -3,7 +3,7 @@
 - Paths are checked before any long work (`prepare_out_dir`, `check_output_file`, `check_apart`,
   `check_replaceable`): no output is an input, none is written through a symbolic link, and a file hvs_sim did not
   write is not replaced unless the user named it or passed --overwrite.
-- Each folder hvs_sim writes into keeps a hidden manifest (MANIFEST_NAME) of the files hvs_sim wrote there; an
+- Each folder hvs_sim writes into keeps a hidden manifest (manifest.py) of the files hvs_sim wrote there; an
   --overwrite removes only those (never by a name pattern, never through a link, never an input).
 - Every file is written under a temporary name and renamed into place when whole (`temporary_beside`, `settle`,
   `write_atomic`, `write_with`); a failed write (a full disk, a read-only disk, a name too long, no permission)
@@ -15,17 +15,14 @@ from __future__ import annotations
 
 import contextlib
 import errno
-import json
 import os
 import shutil
 import tempfile
 from pathlib import Path
 
 from hvs_sim.errors import ConfigError, OutputError
+from hvs_sim.manifest import MANIFEST_NAME, clear_written, record, written_by_hvs_sim
 
-MANIFEST_NAME = ".hvs_sim-outputs"  # in each folder hvs_sim writes into: the files it wrote there (JSON; no .json
-# suffix, so that a glob of a folder's *.json, e.g. a sweep's tasks, does not meet it)
-MANIFEST_VERSION = 1
 TEMPORARY_STEM, TEMPORARY_SUFFIX = 100, 20  # a temporary's name keeps this much of its target's: always a legal name
 MIN_FREE_BYTES = 8 << 20  # a native writer stops before a chunk that would leave less than this free
 OUTPUT_ERRNOS = frozenset({errno.ENOSPC, errno.EROFS, errno.ENAMETOOLONG, errno.EACCES, errno.EDQUOT, errno.EFBIG})
@@ -71,7 +68,7 @@ def discard_pending() -> None:
     _pending.clear()
 
 
-def shown_name(path) -> Path:
+def shown_name(path) -> Path | None:
     """The file the user asked for, where `path` is one of this command's temporaries (temporary_beside)."""
     if path is None:
         return path
@@ -107,73 +104,7 @@ def _name_max(path) -> int:
         return 255
 
 
-# ---------------------------------------------------------------------------- the manifest
-
-
-def _manifest_path(folder) -> Path:
-    return Path(folder) / MANIFEST_NAME
-
-
-def manifest_files(folder) -> set[str]:
-    """The files (relative to `folder`) hvs_sim recorded writing there; an unreadable manifest lists none."""
-    p = _manifest_path(folder)
-    if p.is_symlink() or not p.is_file():
-        return set()
-    try:
-        data = json.loads(p.read_text())
-    except (OSError, ValueError):
-        return set()
-    files = data.get("files") if isinstance(data, dict) else None
-    return {f for f in files if isinstance(f, str)} if isinstance(files, list) else set()
-
-
-@contextlib.contextmanager
-def _locked(folder: Path):
-    """The folder locked against other hvs_sim processes updating its manifest (flock on the folder itself)."""
-    import fcntl
-
-    fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY)
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
-        yield
-    finally:
-        os.close(fd)
-
-
-def _update_manifest(folder: Path, add=(), remove=()) -> None:
-    with _locked(folder):
-        files = (manifest_files(folder) | set(add)) - set(remove)
-        target = _manifest_path(folder)
-        if target.is_symlink():
-            target.unlink()
-        tmp = folder / f".{MANIFEST_NAME}.{os.getpid()}.tmp"
-        try:
-            tmp.write_text(json.dumps({"tool": "hvs_sim", "version": MANIFEST_VERSION, "files": sorted(files)},
-                                      indent=1))
-            os.replace(tmp, target)
-        except OSError as exc:  # the outputs themselves are whole: an unlisted one is only never removed (safe)
-            tmp.unlink(missing_ok=True)
-            import sys
-
-            print(f"hvs-sim: warning: could not update {target} ({exc.strerror or exc}); hvs_sim's files there are "
-                  "not listed, so a later --overwrite leaves them in place", file=sys.stderr)
-
-
-def record(paths) -> None:
-    """Note in each file's folder that hvs_sim wrote it (once it is whole there), so that a later --overwrite may
-    remove it."""
-    by_folder: dict[Path, list[str]] = {}
-    for p in paths:
-        p = Path(p).absolute()
-        by_folder.setdefault(p.parent, []).append(p.name)
-    for folder, names in by_folder.items():
-        if folder.is_dir():
-            _update_manifest(folder, add=names)
-
-
-def written_by_hvs_sim(path) -> bool:
-    p = Path(path).absolute()
-    return p.name in manifest_files(p.parent)
+# ---------------------------------------------------------------------------- checks before any work
 
 
 def _has_link_below(root: Path, path: Path) -> bool:
@@ -189,44 +120,6 @@ def _has_link_below(root: Path, path: Path) -> bool:
         if cur.is_symlink():
             return True
     return False
-
-
-def clear_written(out, inputs=()) -> list[Path]:
-    """Remove the regular files hvs_sim's manifests in `out` (and its sub-folders' manifests, not through links)
-    list, except inputs of this command; returns what was removed. Nothing else is touched."""
-    out = Path(out).absolute()
-    ins = [Path(p).resolve() for p in inputs]
-    removed = []
-    for folder in [out, *_subfolders(out)]:
-        names = manifest_files(folder)
-        gone = []
-        for name in sorted(names):
-            p = folder / name
-            if "/" in name or name in ("", ".", "..") or not p.exists() or p.is_symlink() or not p.is_file():
-                gone.append(name)
-                continue
-            real = p.resolve()
-            if any(real == i or i in real.parents for i in ins):
-                continue  # an input of this command: kept (and still listed)
-            p.unlink()
-            removed.append(p)
-            gone.append(name)
-        if gone:
-            _update_manifest(folder, remove=gone)
-    return removed
-
-
-def _subfolders(out: Path) -> list[Path]:
-    """The real folders below `out` (no link followed) that hold a manifest."""
-    found = []
-    for root, dirs, files in os.walk(out, followlinks=False):
-        dirs[:] = [d for d in dirs if not (Path(root) / d).is_symlink()]
-        if Path(root) != out and MANIFEST_NAME in files:
-            found.append(Path(root))
-    return found
-
-
-# ---------------------------------------------------------------------------- checks before any work
 
 
 def prepare_out_dir(out, flag: str = "--out") -> Path:

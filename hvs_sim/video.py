@@ -1,51 +1,17 @@
-"""Run a tracker on your own footage: a video file or a folder of images.
+"""Track a target through footage (a video file or a folder of images) and write what was tracked: track.csv, the
+annotated MP4 and, when asked, a rerun recording and a ROS 2 bag.
 
-  hvs-sim track PATH --roi x,y,w,h [--start N] [--end M] [--tracker hybrid] [--target auto] [--out DIR]
-                [--rrd FILE]
-
-PATH is a video file OpenCV can read, or a folder of images (.png .jpg .jpeg .bmp .tif .tiff,
-sorted by file name; other files are ignored; every image must have the size of the first).
-
-Frames are numbered from 0 in the clip. --start N --end M track frames N to M-1 (M exclusive, as a
-Python slice); the first tracked frame is N, and the ROI is given in it.
-
-Conventions: pixel centres sit at integer coordinates. The ROI (x, y, w, h) is given in the first
-tracked frame and covers pixels x..x+w-1 and y..y+h-1; its centre is (x + (w - 1)/2, y + (h - 1)/2). The
-corners are the ROI's outer pixel edges (x - 0.5, y - 0.5) ... under the tracked warp, in the order
-top-left, top-right, bottom-right, bottom-left. The pose (tx, ty, theta, scale) is relative to the
-ROI at the first frame (theta in radians; positive turns clockwise on screen, as y points down).
-
-Outputs in DIR (default out/track):
-  track.csv      one row per frame: frame, cx, cy, tx, ty, theta, scale, mode, occlusion, score, ms
-                 (frame: the clip's frame number, N and on with --start N). The first row is the first
-                 tracked frame, where the tracker takes its template: its mode is "init",
-                 its pose the identity and its ms the time init() took. Later rows have the tracker's
-                 mode (align, predict or lost) and ms is the wall time of that update.
-  annotated.mp4  the frames with the tracked outline and centre, coloured by mode (init white,
-                 align green, predict amber, lost red), at the source's fps (30 for a folder).
-  FILE (--rrd)   a rerun recording: the image, the tracked outline and centre, and per-frame plots of
-                 occlusion, score, ms and mode. Open it with `rerun FILE`.
-
-What the target does (--target, the hybrid trackers): `static` when it is fixed in the scene (the
-surroundings' motion is its motion, and a far jump of the match must be verified), `moving` when it
-moves on its own (a confident match is never vetoed, gaps are extrapolated from its own motion), or
-`auto` (the default): moving for the first aligned frames, then whichever the target's offset from its
-surroundings' motion says; the summary says which was chosen. A scene cut ends in `lost` at the cut.
-
-Bad input (missing path, unreadable video or image, a folder without images, images of different
-sizes, a malformed or out-of-frame ROI, an unknown tracker, an output folder that cannot be written)
-stops with a message and exit status 2; outputs of a run that failed part-way are removed. Ctrl-C
-stops cleanly: the frames tracked so far are kept (CSV and video closed) and the exit status is 130.
+The library side of `hvs-sim track` (the command, its options and its --help are hvs_sim/cli/track.py); the
+frames are read by hvs_sim/framesource.py. Conventions (pixel centres, the ROI, the corners' order, the pose) and the
+outputs' columns are the command's --help.
 """
 
 from __future__ import annotations
 
-import argparse
 import csv
 import logging
 import re
 import statistics
-import sys
 import time
 from collections import Counter
 from collections.abc import Iterator
@@ -57,8 +23,9 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
-from hvs_sim.cliargs import DEFAULT_TRACKER, add_settings_option, parse_settings
+from hvs_sim.cliargs import DEFAULT_TRACKER
 from hvs_sim.errors import ConfigError, InputError, OutputError
+from hvs_sim.framesource import FrameSource, open_frames
 from hvs_sim.outputs import (
     check_apart,
     check_output_file,
@@ -69,20 +36,17 @@ from hvs_sim.outputs import (
     temporary_beside,
 )
 from hvs_sim.plugins import check_any_tracker, make_any_tracker
-from hvs_sim.tracking import TRACKER_NAMES, Track
-from hvs_sim.tracking.frames import MIN_ROI, check_roi
+from hvs_sim.tracking import Track
+from hvs_sim.tracking.frames import check_roi
 
 log = logging.getLogger(__name__)
 
-IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
-FOLDER_FPS = 30.0  # frame rate of the annotated video when the source is a folder (or a video without one)
 CSV_NAME, VIDEO_NAME = "track.csv", "annotated.mp4"
 CSV_COLUMNS = ("frame", "cx", "cy", "tx", "ty", "theta", "scale", "mode", "occlusion", "score", "ms")
 INIT_MODE = "init"
 ALIGN_MODE = "align"  # the updates whose time the summary reports (predict and lost skip the alignment)
 # footage often shows a target that moves on its own, where the servo loop's static prior would veto it (`--target`)
 TRACK_TARGET_DEFAULT = "auto"
-EXIT_INTERRUPTED = 130  # the shell's convention for a process stopped by SIGINT
 MODE_COLOURS = {INIT_MODE: (255, 255, 255), "align": (0, 220, 0), "predict": (255, 170, 0), "lost": (255, 0, 0)}  # RGB
 SHIFT_BITS = 4  # sub-pixel bits for cv2 drawing, so the outline sits where the tracker put it
 DRAW_LIMIT_PX = 1e5  # clip coordinates before drawing so a wild pose cannot overflow int32
@@ -93,7 +57,7 @@ LABEL_ORIGIN, LABEL_SCALE = (8, 20), 0.5
 MODE_PLOT_CODE = {INIT_MODE: 0, "align": 0, "predict": 1, "lost": 2}
 
 
-# ---------------------------------------------------------------- input: ROI, tracker name, frames
+# ---------------------------------------------------------------- input: the ROI
 
 
 def parse_roi(text: str) -> tuple[int, int, int, int]:
@@ -105,117 +69,6 @@ def parse_roi(text: str) -> tuple[int, int, int, int]:
         raise InputError(f"--roi must be 4 integers x,y,w,h separated by commas (e.g. 120,80,64,48), got {text!r}")
     return roi
 
-
-@dataclass
-class FrameSource:
-    """A stream of RGB frames: the first is read up front (to check the ROI), the rest on demand."""
-
-    path: Path
-    first: np.ndarray
-    rest: Iterator[np.ndarray]
-    fps: float
-    count: int | None  # frames in all, when known (for the progress bar)
-    start: int = 0  # the clip's number of `first` (--start)
-
-    def close(self) -> None:
-        self.rest.close()  # runs the generator's finally: releases a VideoCapture
-
-    @property
-    def size(self) -> tuple[int, int]:
-        return self.first.shape[1], self.first.shape[0]
-
-
-def open_frames(path, start: int = 0, end: int | None = None) -> FrameSource:
-    """The frames start..end-1 of a video file or a folder of images (end None: to the clip's end)."""
-    path = Path(path)
-    if start < 0 or (end is not None and end <= start):
-        raise ConfigError(f"--start {start} --end {end}: the range is frames start..end-1, so give 0 <= start < end")
-    source = _open_any(path)
-    return source if start == 0 and end is None else _frame_range(source, start, end)
-
-
-def _frame_range(source: FrameSource, start: int, end: int | None) -> FrameSource:
-    """The frames start..end-1 of `source` (the skipped ones are read, as a video can only be read in order)."""
-    import itertools
-
-    frames = itertools.chain([source.first], source.rest)
-    try:
-        for _ in range(start):
-            next(frames)
-        first = next(frames)
-    except StopIteration:
-        source.close()
-        raise InputError(f"--start {start} is past the end of {source.path}: it has "
-                         f"{source.count if source.count is not None else 'fewer'} frames (numbered from 0)") from None
-
-    def rest() -> Iterator[np.ndarray]:
-        try:
-            yield from itertools.islice(frames, None if end is None else end - start - 1)
-        finally:
-            source.close()
-
-    count = None if source.count is None else max(0, min(source.count, end or source.count) - start)
-    return FrameSource(source.path, first, rest(), source.fps, count, start)
-
-
-def _open_any(path: Path) -> FrameSource:
-    if not path.exists():
-        raise InputError(f"{path} does not exist; give a video file OpenCV can read or a folder of images "
-                         f"({' '.join(IMAGE_SUFFIXES)})")
-    if path.is_dir():
-        return _open_folder(path)
-    if not path.is_file():  # a FIFO or a device would block or never end
-        raise InputError(f"{path} is not a regular file or a folder; give a video file or a folder of images")
-    return _open_video(path)
-
-
-def _open_folder(folder: Path) -> FrameSource:
-    files = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES)
-    if not files:
-        raise InputError(f"folder {folder} has no images; accepted: {' '.join(IMAGE_SUFFIXES)} files, "
-                         f"read in file-name order")
-    first = _read_image(files[0])
-    return FrameSource(folder, first, _folder_frames(files[1:], first.shape), FOLDER_FPS, len(files))
-
-
-def _read_image(path: Path, shape: tuple[int, ...] | None = None) -> np.ndarray:
-    """A frame of a folder, read as scene.images.read_rgb reads images (size from the header, EXIF, 16 bit, alpha)."""
-    from hvs_sim.scene.images import read_rgb
-
-    rgb = read_rgb(path, "image")
-    if shape is not None and rgb.shape != shape:
-        raise InputError(f"image {path} is {rgb.shape[1]}×{rgb.shape[0]} but the first image is "
-                         f"{shape[1]}×{shape[0]}; every image in the folder must have the same size")
-    return rgb
-
-
-def _folder_frames(files: list[Path], shape: tuple[int, ...]) -> Iterator[np.ndarray]:
-    for path in files:
-        yield _read_image(path, shape)
-
-
-def _open_video(path: Path) -> FrameSource:
-    cap = cv2.VideoCapture(str(path))
-    ok, bgr = cap.read() if cap.isOpened() else (False, None)
-    if not ok:
-        cap.release()
-        raise InputError(f"cannot read a video frame from {path}; accepted: a video file OpenCV can decode "
-                         f"(e.g. .mp4, .avi, .mov) or a folder of images ({' '.join(IMAGE_SUFFIXES)})")
-    fps = cap.get(cv2.CAP_PROP_FPS)
-    count = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
-    return FrameSource(path, cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), _video_frames(cap),
-                       fps if np.isfinite(fps) and fps > 0 else FOLDER_FPS, count if count > 0 else None)
-
-
-def _video_frames(cap: cv2.VideoCapture) -> Iterator[np.ndarray]:
-    try:
-        while True:
-            ok, bgr = cap.read()
-            if not ok:
-                return
-            yield cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
-    finally:
-        cap.release()
 
 
 # ---------------------------------------------------------------- output: folder, CSV, video, rerun
@@ -528,53 +381,3 @@ def _roi_track(roi) -> Track:
 
     return Track(center=roi_center(roi), corners=roi_corners(roi), pose=np.array([0.0, 0.0, 0.0, 1.0]),
                  mode=INIT_MODE, occlusion=0.0, score=1.0)
-
-
-# ---------------------------------------------------------------- CLI
-
-
-def add_track_parser(sub) -> None:
-    """Register `hvs-sim track` on the CLI's subparsers."""
-    p = sub.add_parser("track", help="run a tracker on your own video file or folder of images",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("path", help=f"a video file OpenCV can read, or a folder of images ({' '.join(IMAGE_SUFFIXES)})")
-    p.add_argument("--roi", required=True, metavar="x,y,w,h", help="the target in the first tracked frame (frame N "
-                   "with --start N), integers: covers "
-                   f"pixels x..x+w-1, y..y+h-1, centre (x + (w-1)/2, y + (h-1)/2); at least {MIN_ROI}×{MIN_ROI}")
-    p.add_argument("--start", type=int, default=0, metavar="N",
-                   help="the first frame to track, numbered from 0 in the clip (default 0); the ROI is in this frame")
-    p.add_argument("--end", type=int, default=None, metavar="M",
-                   help="stop before frame M: frames N..M-1 are tracked (M exclusive; default: to the clip's end)")
-    p.add_argument("--tracker", default=DEFAULT_TRACKER, metavar="NAME",
-                   help=f"one of: {', '.join(TRACKER_NAMES)} (default {DEFAULT_TRACKER}); or an outside tracker: a "
-                        "registered or entry-point name, package.module:callable or path/to/file.py:callable")
-    p.add_argument("--out", default="out/track", metavar="DIR",
-                   help="folder for track.csv and annotated.mp4, created when missing (default out/track)")
-    p.add_argument("--rrd", default=None, metavar="FILE", help="also save a rerun recording here")
-    p.add_argument("--mcap", default=None, metavar="DIR", help="also write a ROS 2 bag (MCAP) into this new folder: "
-                   "the frames, the tracked corners and the mode")
-    p.add_argument("--target", choices=("static", "moving", "auto"), default=None,
-                   help="what the target does, for the hybrid trackers: static (fixed in the scene: the surroundings' "
-                        "motion is its motion), moving (it moves on its own), or auto (default: chosen from the first "
-                        "aligned frames, and said in the summary)")
-    p.add_argument("--overwrite", action="store_true",
-                   help="track into a non-empty --out (its track.csv and annotated.mp4 are replaced when the run ends)")
-    add_settings_option(p)
-    p.set_defaults(func=cmd_track)
-
-
-def cmd_track(args) -> int:
-    from hvs_sim.cli.common import stop_reason
-
-    try:
-        result = track_footage(args.path, args.roi, args.tracker, args.out, args.rrd,
-                               settings=parse_settings(args.set), overwrite=args.overwrite, target=args.target,
-                               mcap=args.mcap, start=args.start, end=args.end)
-    except KeyboardInterrupt:  # before the first frame was tracked: nothing was written
-        print(f"hvs-sim: {stop_reason()} before tracking started; nothing written", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    print(result.summary())
-    if result.interrupted:
-        print(f"hvs-sim: {stop_reason()}; the frames tracked so far are kept", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    return 0

@@ -142,7 +142,7 @@ def test_a_recording_shows_the_arms_own_meshes(tmp_path):
 
 def test_a_joint_that_turns_twice_starts_a_turn_away_from_its_limits():
     from hvs_sim.bench.servo import episode_start
-    from hvs_sim.scene.world import unwound
+    from hvs_sim.scene.ik import unwound
 
     lo, hi = np.full(3, -2 * np.pi), np.full(3, 2 * np.pi)
     assert np.allclose(unwound(np.array([6.057, -0.3, 1.0]), np.zeros(3), lo, hi), [6.057 - 2 * np.pi, -0.3, 1.0])

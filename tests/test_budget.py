@@ -1,4 +1,4 @@
-"""The pose bound (control/bound.py), the camera's noise model it reads (camera_model.output_variance) and
+"""The pose bound (control/bound.py), the camera's noise model it reads (sensor.output_variance) and
 `hvs-sim budget`."""
 
 import json
@@ -6,11 +6,11 @@ import json
 import numpy as np
 import pytest
 
-from hvs_sim.camera_model import SensorState, jpeg_variance, output_variance, sensor_preset
 from hvs_sim.cli import main
 from hvs_sim.control.bound import pose_bound
 from hvs_sim.control.dvs import luminance_interaction
 from hvs_sim.errors import ConfigError, InputError
+from hvs_sim.sensor import SensorState, jpeg_variance, output_variance, sensor_preset
 
 
 def test_a_ramp_bounds_sideways_translation_as_the_closed_form_says():

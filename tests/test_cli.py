@@ -15,7 +15,8 @@ import pytest
 from hvs_sim.cli import build_parser, main
 from hvs_sim.errors import InputError, StateError
 from hvs_sim.loop import LoopConfig, ServoLoop
-from hvs_sim.outputs import fresh_out_dir, record
+from hvs_sim.manifest import record
+from hvs_sim.outputs import fresh_out_dir
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 
 

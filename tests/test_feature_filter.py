@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from hvs_sim.bench.servo import ServoBenchConfig
-from hvs_sim.camera_model import sensor_preset
 from hvs_sim.cli import main
 from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA, FeatureFilter
 from hvs_sim.control.ibvs import IBVSConfig, IBVSController
@@ -20,6 +19,7 @@ from hvs_sim.render.camera import CameraPose, intrinsics
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 from hvs_sim.scene.world import Scene
+from hvs_sim.sensor import sensor_preset
 
 K = intrinsics(640, 480, 45.0)
 Z_STAR = 0.8

@@ -88,7 +88,8 @@ def test_a_failed_write_names_the_file_and_keeps_the_previous_one(tmp_path, monk
 
     from hvs_sim import outputs
     from hvs_sim.errors import OutputError
-    from hvs_sim.outputs import MANIFEST_NAME, write_atomic
+    from hvs_sim.manifest import MANIFEST_NAME
+    from hvs_sim.outputs import write_atomic
 
     target = tmp_path / "summary.json"
     write_atomic(target, "complete")

@@ -10,7 +10,7 @@ import pytest
 import hvs_sim  # noqa: F401  (registers the environment)
 from hvs_sim.errors import HvsError
 from hvs_sim.loop import LoopConfig, ServoLoop, summarize_run
-from hvs_sim.outputs import MANIFEST_NAME
+from hvs_sim.manifest import MANIFEST_NAME
 from hvs_sim.runner import run_episode
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 

@@ -12,7 +12,7 @@ from hvs_sim.bench.stats import episode_success, mcnemar, median_ci, rate, wilco
 from hvs_sim.bench.suites import SUITES, describe, get_suite
 from hvs_sim.cli import main
 from hvs_sim.errors import ConfigError
-from hvs_sim.outputs import MANIFEST_NAME, record
+from hvs_sim.manifest import MANIFEST_NAME, record
 from hvs_sim.viz.figures import method_colour
 
 

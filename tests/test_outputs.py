@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 import pytest
 
-from hvs_sim import outputs
+from hvs_sim import manifest, outputs
 from hvs_sim.cli import main
 from hvs_sim.errors import ConfigError, OutputError
 
@@ -112,7 +112,7 @@ def test_wall_images_inside_out_are_never_removed(tmp_path, capsys):
 def test_overwrite_removes_only_what_hvs_sim_wrote_and_never_through_a_link(tmp_path, capsys):
     o = tmp_path / "o"
     assert main([*SCENE, "--format", "png", "--out", str(o)]) == 0
-    assert outputs.manifest_files(o / "frames") == {"00000.png", "00001.png", "00002.png"}
+    assert manifest.manifest_files(o / "frames") == {"00000.png", "00001.png", "00002.png"}
     (o / "frames" / "9999.png").write_bytes(b"mine")  # the user's, named like a frame
     (o / "notes.txt").write_text("mine")
     assert main([*SCENE[:1], "--frames", "2", *SMALL, "--format", "png", "--out", str(o), "--overwrite"]) == 0
@@ -130,7 +130,7 @@ def test_overwrite_removes_only_what_hvs_sim_wrote_and_never_through_a_link(tmp_
     _fails([*SCENE, "--format", "png", "--out", str(link), "--overwrite"], capsys, "symbolic link")
     assert (precious / "00000.png").read_bytes() == kept and sorted(p.name for p in precious.iterdir()) == [
         ".hvs_sim-outputs", "00000.png"]
-    outputs.clear_written(link)  # the layer itself: a link is never followed when clearing
+    manifest.clear_written(link)  # the layer itself: a link is never followed when clearing
     assert (precious / "00000.png").read_bytes() == kept
 
 
@@ -139,7 +139,7 @@ def test_a_manifest_entry_that_leaves_the_folder_is_ignored(tmp_path):
     victim = tmp_path / "victim.txt"
     victim.write_text("keep")
     (tmp_path / "o" / ".hvs_sim-outputs").write_text(json.dumps({"files": ["../victim.txt", "/etc/passwd"]}))
-    assert outputs.clear_written(tmp_path / "o") == [] and victim.read_text() == "keep"
+    assert manifest.clear_written(tmp_path / "o") == [] and victim.read_text() == "keep"
 
 
 # ------------------------------------------------------------------------- sidecars are not replaced unasked
@@ -348,6 +348,7 @@ def test_budget_figure_onto_a_full_disk(tmp_path, capsys, full_disk):
 
 def test_sweep_lock_onto_a_full_disk(tmp_path, capsys, monkeypatch):
     from hvs_sim import sweep
+    from hvs_sim.sweep import run as sweep_run
 
     class Full:
         def __init__(self, *a, **k):
@@ -367,7 +368,7 @@ def test_sweep_lock_onto_a_full_disk(tmp_path, capsys, monkeypatch):
         def close(self):
             pass
 
-    monkeypatch.setattr(sweep, "open", Full, raising=False)
+    monkeypatch.setattr(sweep_run, "open", Full, raising=False)  # the lock's (sweep/run.py)
     spec = sweep.parse_spec('kind = "servo"\n[axes]\ntracker = ["ground_truth"]\n')
     with pytest.raises(OutputError, match=r"\.sweep\.lock .No space left"):
         sweep.run_sweep(spec, tmp_path / "o", progress=False)
@@ -444,7 +445,7 @@ def test_check_replaceable_and_check_apart_directly(tmp_path):
     (tmp_path / "a").write_text("x")
     with pytest.raises(ConfigError, match="not written by hvs_sim"):
         outputs.check_replaceable({"a": tmp_path / "a"})
-    outputs.record([tmp_path / "a"])
+    manifest.record([tmp_path / "a"])
     outputs.check_replaceable({"a": tmp_path / "a"})  # now hvs_sim's
     with pytest.raises(ConfigError, match="one file"):
         outputs.check_apart([], {"x": tmp_path / "a", "y": tmp_path / "a"})

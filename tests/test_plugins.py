@@ -277,7 +277,7 @@ def test_an_outside_trackers_first_answer_is_checked_against_the_corner_conventi
     told at its first answer, with where the convention is written; one that keeps it, or merely tracks badly, not."""
     import warnings
 
-    from hvs_sim.plugins import ContractWarning, ExternalTracker
+    from hvs_sim.external import ContractWarning, ExternalTracker
     from hvs_sim.tracking.frames import roi_corners
 
     roi = (140, 100, 150, 100)

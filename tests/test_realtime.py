@@ -208,8 +208,8 @@ def test_a_supersampled_render_larger_than_the_largest_side_is_refused():
 
 
 def test_supersampling_with_the_motion_field_blur_is_refused():
-    from hvs_sim.camera_model import sensor_preset
     from hvs_sim.errors import ConfigError
+    from hvs_sim.sensor import sensor_preset
 
     with pytest.raises(ConfigError, match="field blur"):
         CameraConfig(sensor=sensor_preset("phone_handheld", blur="field"), supersample=2)
@@ -221,9 +221,9 @@ def test_a_supersampled_pixel_is_the_mean_of_its_samples_and_moves_with_the_scen
     longer aliases into patterns that move unlike the scene)."""
     import cv2
 
-    from hvs_sim.camera_model import decode, encode
     from hvs_sim.geometry import offset_pose
     from hvs_sim.loop import GOAL_ROI_INSET_PX
+    from hvs_sim.sensor import decode, encode
     from hvs_sim.tracking import make_tracker
     from hvs_sim.tracking.frames import inset_roi, roi_corners, roi_from_corners
 

@@ -119,13 +119,13 @@ def test_a_file_that_is_not_python_is_refused_as_a_plugin(ref, capsys):
 
 def test_sigterm_is_named_as_sigterm(tmp_path, capsys, monkeypatch):
     """The handler's effect, raised where the command is (no real signal: nothing races)."""
-    from hvs_sim import video
+    from hvs_sim.cli import track as track_command
     from hvs_sim.cli.common import _on_sigterm
 
     def terminated(*a, **k):
         _on_sigterm(15, None)
 
-    monkeypatch.setattr(video, "track_footage", terminated)
+    monkeypatch.setattr(track_command, "track_footage", terminated)  # as `hvs-sim track` calls it
     assert main(["track", str(tmp_path / "clip.mp4"), "--roi", "1,1,40,40", "--out", str(tmp_path / "o")]) == 143
     err = capsys.readouterr().err
     assert "terminated (SIGTERM)" in err and "Ctrl-C" not in err

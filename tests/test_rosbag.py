@@ -122,7 +122,7 @@ def test_scene_writes_its_frames_and_truth_as_a_bag_with_the_lens(tmp_path):
         assert abs(ns - truth["time"][k] * 1e9) < 1e3  # the CSV and NPZ keep the time to the microsecond
         assert np.allclose([[p.x, p.y] for p in poly.polygon.points], truth["corners"][k], atol=1e-4)
     info = got["/camera/camera_info"][0][1]
-    from hvs_sim.camera_model import sensor_preset
+    from hvs_sim.sensor import sensor_preset
 
     lens = sensor_preset("webcam").distortion
     assert np.allclose(info.d[:len(lens)], lens) and np.allclose(np.reshape(info.k, (3, 3)), truth["K"])

@@ -8,7 +8,11 @@ import cv2
 import numpy as np
 import pytest
 
-from hvs_sim.camera_model import (
+from hvs_sim.errors import ConfigError, HvsError
+from hvs_sim.render.renderer import Renderer
+from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+from hvs_sim.scene.world import Scene
+from hvs_sim.sensor import (
     _DECODE_LUT,
     BLUR_STEP_PX,
     SENSOR_NAMES,
@@ -21,10 +25,6 @@ from hvs_sim.camera_model import (
     sensor_preset,
     undistort_points,
 )
-from hvs_sim.errors import ConfigError, HvsError
-from hvs_sim.render.renderer import Renderer
-from hvs_sim.scene.scenarios import CameraConfig, make_scenario
-from hvs_sim.scene.world import Scene
 
 STILL = {"shake": 0.0}  # a hand-held camera that does not move, so frames differ by the sensor only
 
@@ -356,7 +356,7 @@ def _rounded_codes_agree(got: np.ndarray, want: np.ndarray, code: np.ndarray) ->
 def test_the_camera_models_arithmetic_is_its_formula():
     """Noise, gain and the 12-bit ADC run as a few single-threaded OpenCV passes and one table: the codes are the
     model's formula in float64 (electrons + √(electrons + read²)·z, × gain, rounded, clipped), the noise N(0, 1)."""
-    from hvs_sim.camera_model import _ENCODE_LUT, LINEAR_LEVELS, _meter, encode
+    from hvs_sim.sensor import _ENCODE_LUT, LINEAR_LEVELS, _meter, encode
 
     rng = np.random.default_rng(3)
     raw = rng.integers(0, 256, (48, 64, 3), dtype=np.uint8)
@@ -394,7 +394,7 @@ def test_the_noise_bank_is_standard_normal_seeded_and_fresh_each_frame():
 def test_output_variance_per_level_matches_the_models_formula(name):
     """Flat grey fields through the sensor (no JPEG, gain fixed): the variance of the delivered 8-bit levels at each
     brightness is `output_variance`'s (shot + read noise through the gain, the sRGB slope and both quantisations)."""
-    from hvs_sim.camera_model import output_variance
+    from hvs_sim.sensor import output_variance
 
     model = sensor_preset(name, jpeg_quality=0, ae_target=0.0)
     state = SensorState(model, 3, (200, 200))

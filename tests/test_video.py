@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from hvs_sim.cli import main
-from hvs_sim.outputs import MANIFEST_NAME
+from hvs_sim.manifest import MANIFEST_NAME
 from hvs_sim.video import CSV_COLUMNS, INIT_MODE
 
 H, W = 240, 320

@@ -9,9 +9,10 @@ import pytest
 from hvs_sim.cli import main
 from hvs_sim.errors import HvsError
 from hvs_sim.render.renderer import Renderer
-from hvs_sim.scene import world
+from hvs_sim.scene import wall as wall_module
 from hvs_sim.scene.scenarios import SCENARIO_NAMES, WALL_SETS, make_scenario
-from hvs_sim.scene.world import Scene, wall_pictures
+from hvs_sim.scene.wall import wall_pictures
+from hvs_sim.scene.world import Scene
 
 
 def _poster(w: int = 400, h: int = 250, seed: int = 0) -> np.ndarray:
@@ -104,7 +105,7 @@ def test_wall_images_fill_the_slots(tmp_path):
 @pytest.mark.parametrize("wall", [w for w in WALL_SETS if w != "flags"])
 def test_texture_walls_are_seeded(wall):
     def pictures(seed):
-        world._texture.cache_clear()  # regenerate, so equality means the same seed gave the same texture
+        wall_module._texture.cache_clear()  # regenerate, so equality means the same seed gave the same texture
         return wall_pictures(make_scenario("clear", seed=seed, wall=wall))[1]
 
     a, b, c = pictures(3), pictures(3), pictures(4)

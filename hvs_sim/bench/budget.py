@@ -28,7 +28,6 @@ import dataclasses
 
 import numpy as np
 
-from hvs_sim.camera_model import jpeg_variance, output_variance, sensor_preset, steady_gain
 from hvs_sim.control.bound import PoseBound, pose_bound
 from hvs_sim.control.dvs import gradients
 from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
@@ -37,6 +36,7 @@ from hvs_sim.errors import ConfigError, InputError
 from hvs_sim.geometry import offset_pose
 from hvs_sim.loop import GOAL_ROI_INSET_PX, LoopConfig, box_in_view, near_goal_growth
 from hvs_sim.loopparts import GOAL_FRAMES, NEAR_GOAL_AUTO, NEAR_GOAL_SCALE
+from hvs_sim.sensor import jpeg_variance, output_variance, sensor_preset, steady_gain
 from hvs_sim.tracking.frames import inset_roi, roi_corners, roi_from_corners
 from hvs_sim.tracking.warp import perspective_transform
 
@@ -66,9 +66,9 @@ def goal_view(scenario, near_goal: int | str | None = None):
     """(clean frame uint8, its per-pixel grey variance, K, template ROI, its inset, why it is not grown) of the camera
     held at the reference pose; the template the loop tracks at the goal with LoopConfig.near_goal_inset_px =
     `near_goal` (near_goal_inset)."""
-    from hvs_sim.camera_model import encode
     from hvs_sim.render.renderer import Renderer
     from hvs_sim.scene.world import Scene
+    from hvs_sim.sensor import encode
 
     scene = Scene(scenario)
     r = Renderer(scene, people=False)

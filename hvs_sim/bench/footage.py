@@ -135,7 +135,7 @@ def packaged_clip(name: str) -> Path:
 
 def read_clip(path: Path) -> list[np.ndarray]:
     """Every frame of a video file as RGB uint8, read as `hvs-sim track` reads it (video.open_frames)."""
-    from hvs_sim.video import open_frames
+    from hvs_sim.framesource import open_frames
 
     source = open_frames(path)
     try:

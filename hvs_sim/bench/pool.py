@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from hvs_sim.errors import ConfigError
-from hvs_sim.outputs import clear_written, write_atomic
+from hvs_sim.manifest import clear_written
+from hvs_sim.outputs import write_atomic
 
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
 # torch threads in every episode and sequence, whatever --workers: sums split over another number of threads round

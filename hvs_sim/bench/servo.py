@@ -22,12 +22,12 @@ import numpy as np
 
 from hvs_sim.bench.pool import collect_jobs, config_json, episode_threads
 from hvs_sim.bench.suites import TILT_MAX_DEG
-from hvs_sim.camera_model import BLUR_MODES, REALISTIC_PRESET
 from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.loop import LoopConfig
 from hvs_sim.loopparts import NEAR_GOAL_AUTO, NEAR_GOAL_SCALE
 from hvs_sim.outputs import write_atomic
 from hvs_sim.provenance import code_provenance
+from hvs_sim.sensor import BLUR_MODES, REALISTIC_PRESET
 from hvs_sim.validate import check_number
 
 SERVO_METHODS = ("ground_truth", "ground_truth/pbvs", "hybrid:homography", "hybrid:homography/pbvs", "hybrid")
@@ -74,8 +74,8 @@ class ServoBenchConfig:
 
     def __post_init__(self):
         from hvs_sim import plugins
-        from hvs_sim.camera_model import sensor_preset
         from hvs_sim.scene.scenarios import PEOPLE_STYLES, SCENARIO_NAMES
+        from hvs_sim.sensor import sensor_preset
         from hvs_sim.tracking import TRACKER_NAMES, check_tracker
 
         if not self.trackers:

@@ -16,9 +16,9 @@ import numpy as np
 
 from hvs_sim.bench.pool import collect_jobs, config_json, episode_threads, write_frames_csv
 from hvs_sim.bench.sequences import Sequence, make_sequence
-from hvs_sim.camera_model import REALISTIC_PRESET
 from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.outputs import write_atomic
+from hvs_sim.sensor import REALISTIC_PRESET
 from hvs_sim.validate import check_number
 
 # the methods and the hybrid's ablations a default run compares (any name of tracking/registry.py is accepted)
@@ -44,7 +44,7 @@ def run_tracker(method: str, seq: Sequence) -> dict[str, np.ndarray]:
     tracker.init(seq.frames[0], seq.roi)
     gt = seq.gt_track
     err, ms, mode, occ_est = [0.0], [0.0], ["init"], [0.0]
-    from hvs_sim.plugins import ExternalTracker
+    from hvs_sim.external import ExternalTracker
 
     # an outside tracker's failure on a frame is recorded (its estimate held, the frame counted lost); a built-in's
     # is a bug, and raises
@@ -98,13 +98,13 @@ class TrackBenchConfig:
     seeds: tuple[int, ...] = (100, 101, 102)
     frames: int | None = None  # None: the scenario's full length
     workers: int = 1
-    camera: str = REALISTIC_PRESET  # camera model of every sequence (hvs_sim.camera_model.SENSOR_PRESETS)
+    camera: str = REALISTIC_PRESET  # camera model of every sequence (hvs_sim.sensor.SENSOR_PRESETS)
     people: str = "textured"  # how the people look ("plain": the flat figures of the earlier benchmarks)
 
     def __post_init__(self):
-        from hvs_sim.camera_model import sensor_preset
         from hvs_sim.plugins import check_any_tracker, probe
         from hvs_sim.scene.scenarios import MOUNTS, PEOPLE_STYLES, SCENARIO_NAMES
+        from hvs_sim.sensor import sensor_preset
 
         if not self.methods:
             raise ConfigError("the tracking benchmark needs at least one tracker")

@@ -79,7 +79,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_demo_parser(sub)
     add_results_parser(sub)
 
-    from hvs_sim.video import add_track_parser  # here, not at the top: it loads OpenCV and the trackers
+    from hvs_sim.cli.track import add_track_parser  # here, not at the top: it loads OpenCV and the trackers
     add_track_parser(sub)
     _no_abbreviations(parser)
     return parser

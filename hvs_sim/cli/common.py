@@ -33,7 +33,7 @@ def _target_overrides(args) -> dict:
 
 def camera_model(preset: str, blur: str | None):
     """A preset's name, or its SensorModel with its motion blur made another way (`--blur`)."""
-    from hvs_sim.camera_model import sensor_preset
+    from hvs_sim.sensor import sensor_preset
 
     if blur is None:
         return preset
@@ -66,7 +66,6 @@ def _scenario_from_args(args):
 
 
 def _add_scene_args(p: argparse.ArgumentParser, mount: bool) -> None:
-    from hvs_sim.camera_model import SENSOR_NAMES
     from hvs_sim.scene.scenarios import (
         DEFAULT_MULTISAMPLE,
         DEFAULT_SUPERSAMPLE,
@@ -76,6 +75,7 @@ def _add_scene_args(p: argparse.ArgumentParser, mount: bool) -> None:
         SUPERSAMPLE_CHOICES,
         WALL_SETS,
     )
+    from hvs_sim.sensor import SENSOR_NAMES
 
     p.add_argument("--scenario", default="walk_by", help=f"one of: {', '.join(SCENARIO_NAMES)} (hvs-sim scenes --list)")
     if mount:  # `run` is closed-loop: its camera is on the arm, so it offers no --mount
@@ -162,7 +162,7 @@ def _on_sigterm(signum, frame):
 
 
 def add_blur_argument(p) -> None:
-    from hvs_sim.camera_model import BLUR_MODES
+    from hvs_sim.sensor import BLUR_MODES
 
     p.add_argument("--blur", default=None, choices=BLUR_MODES,
                    help="how the camera's motion blur is made: subframes (default: a render per sub-frame of the "

@@ -3,15 +3,17 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from pathlib import Path
 
 from hvs_sim.cli.common import HelpFormatter, _target_overrides, stop_reason
-from hvs_sim.cli.run import cmd_run
+from hvs_sim.cli.run import add_run_parser, cmd_run
 from hvs_sim.cliargs import DEFAULT_TRACKER, near_goal_inset
 from hvs_sim.errors import ConfigError
-from hvs_sim.outputs import MANIFEST_NAME, fresh_out_dir, prepare_out_dir, write_atomic
+from hvs_sim.manifest import MANIFEST_NAME
+from hvs_sim.outputs import fresh_out_dir, prepare_out_dir, write_atomic
 from hvs_sim.scene.arms import DEFAULT_ARM
 
 DEMO_OUTPUTS = ("run.json", "run_steps.csv", "run.rrd", "frames.png", "error.png")  # what `hvs-sim demo` writes
@@ -113,10 +115,10 @@ def cmd_dataset(args) -> int:
 
 
 def cmd_demo(args) -> int:
-    from hvs_sim.cli import build_parser  # the package's: it gathers every command module, this one included
     from hvs_sim.outputs import check_replaceable
 
-    parser = build_parser()
+    parser = argparse.ArgumentParser(prog="hvs-sim")  # `run` alone: the demo is a run with fixed options
+    add_run_parser(parser.add_subparsers(dest="command", required=True))
     out = prepare_out_dir(args.out)
     run_args = parser.parse_args(["run", "--scenario", "walk_by", "--tracker", DEFAULT_TRACKER, "--seed", "0",
                                   "--steps", "240", "--json", str(out / "run.json"), "--rrd", str(out / "run.rrd"),
@@ -142,8 +144,8 @@ def add_train_parser(sub) -> None:
 
 
 def add_budget_parser(sub) -> None:
-    from hvs_sim.camera_model import SENSOR_NAMES
     from hvs_sim.scene.arms import ARM_NAMES
+    from hvs_sim.sensor import SENSOR_NAMES
 
     p = sub.add_parser("budget", formatter_class=HelpFormatter,
                        help="what accuracy 6-DOF servoing can reach: the Cramér–Rao bound on the camera's pose at the "
@@ -178,8 +180,8 @@ def add_demo_parser(sub) -> None:
 
 def add_dataset_parser(sub) -> None:
     from hvs_sim.bench.dataset import DATASET_ID, DATASET_OBS_MODES, DatasetConfig
-    from hvs_sim.camera_model import SENSOR_NAMES
     from hvs_sim.scene.scenarios import SCENARIO_NAMES
+    from hvs_sim.sensor import SENSOR_NAMES
 
     d = DatasetConfig()
     p = sub.add_parser("dataset", formatter_class=HelpFormatter,

@@ -95,10 +95,10 @@ def _write(scenario, out: Path, args) -> dict:
 
 def cmd_scenes(args) -> int:
     """List what a scene can be built from: scenario presets, camera presets, wall sets, targets."""
-    from hvs_sim.camera_model import SENSOR_PRESETS
     from hvs_sim.scene.flag_art import FLAG_NAMES
     from hvs_sim.scene.scenarios import SCENARIO_NAMES, WALL_SETS, make_scenario
     from hvs_sim.scene.textures import NATURAL_TEXTURES, TEXTURE_SETS
+    from hvs_sim.sensor import SENSOR_PRESETS
 
     print("scenarios (--scenario):")
     for name in SCENARIO_NAMES:

@@ -1,4 +1,4 @@
-"""`hvs-sim sweep`: run a sweep from a TOML spec, or report on one (the work itself is hvs_sim/sweep.py)."""
+"""`hvs-sim sweep`: run a sweep from a TOML spec, or report on one (the work itself is the hvs_sim.sweep package)."""
 
 from __future__ import annotations
 
@@ -35,7 +35,7 @@ def cmd_sweep(args) -> int:
 
 def add_sweep_parser(sub) -> None:
     p = sub.add_parser("sweep", formatter_class=HelpFormatter,
-                       help="parameter sweeps from a TOML spec, on a local pool or Ray; resumable (hvs_sim/sweep.py)")
+                       help="parameter sweeps from a TOML spec, on a local pool or Ray; resumable (hvs_sim/sweep/)")
     p.add_argument("target", nargs="+", metavar="SPEC.toml | report DIR",
                    help="a sweep spec to run, or `report DIR` to summarise a sweep")
     p.add_argument("--out", default=None, help="sweep folder: tasks/*.json, results.csv (re-running resumes)")

@@ -77,7 +77,7 @@ class VisualServoEnv(gym.Env):
                  camera: str = "ideal", reward: str = "pixels", obs_mode: str = "image", joints: str = "wrapped",
                  tracker: str = "ground_truth", render_size: tuple[int, int] = (480, 360),
                  appearance: str = "per_episode", arm: str = "jaco"):
-        """camera: the camera model of the observations (hvs_sim.camera_model.SENSOR_PRESETS), e.g.
+        """camera: the camera model of the observations (hvs_sim.sensor.SENSOR_PRESETS), e.g.
         "phone_handheld" for exposure changes, blur, noise and JPEG as a real camera gives them.
         tracker: with obs_mode "features", whose corners the observation holds: "ground_truth", a tracker of the
         registry or an outside one (hvs_sim.plugins), initialised on the episode's first frame."""

@@ -6,7 +6,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from hvs_sim.camera_model import decode, encode, jpeg
+from hvs_sim.sensor import decode, encode, jpeg
 
 SENSOR_SHARE = 0.7  # of training samples that go through the sensor model (the rest stay as rendered)
 
@@ -64,7 +64,7 @@ JPEG_QUALITY = (40, 95)
 
 
 def sensor(frame: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """Shot + read noise in linear light (as camera_model.py), then JPEG at a random quality."""
+    """Shot + read noise in linear light (as sensor.py), then JPEG at a random quality."""
     lin = decode(frame)
     white, read = rng.uniform(*SENSOR_WHITE_E), rng.uniform(*SENSOR_READ_E)
     electrons = lin * np.float32(white)

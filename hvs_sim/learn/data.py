@@ -21,7 +21,7 @@ import torch
 from hvs_sim.control.arm import ArmDriver
 from hvs_sim.control.ibvs import IBVSConfig, IBVSController
 from hvs_sim.learn.augment import degrade
-from hvs_sim.render.camera import CameraPose, project, transfer_points
+from hvs_sim.render.camera import CameraPose, project
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.render.sequence import iterate_sequence
 from hvs_sim.scene.flag_art import FLAG_NAMES
@@ -29,22 +29,13 @@ from hvs_sim.scene.scenarios import make_scenario
 from hvs_sim.scene.textures import PROCEDURAL_TEXTURES
 from hvs_sim.scene.world import Scene
 from hvs_sim.tracking.aligner import Aligner, DeepLKConfig
-from hvs_sim.tracking.frames import roi_center, roi_corners, roi_from_corners
-from hvs_sim.tracking.warp import apply, fit_similarity, matrix_to_pose, pose_to_matrix
+from hvs_sim.tracking.frames import roi_from_corners
+from hvs_sim.tracking.warp import apply, matrix_to_pose, pose_to_matrix
 
 TRAIN_SEED0 = 1000
 # targets of the residual's training views, taken in turn: the flags and the procedural textures
 TRAINING_TARGETS = tuple(name for pair in zip(FLAG_NAMES, PROCEDURAL_TEXTURES) for name in pair) + \
     FLAG_NAMES[len(PROCEDURAL_TEXTURES):] + PROCEDURAL_TEXTURES[len(FLAG_NAMES):]
-
-
-def gt_similarity(corners0: np.ndarray, corners_t: np.ndarray, roi) -> np.ndarray:
-    """Frame-from-template similarity: θ, s fitted to the ROI corners, translation of the ROI centre exact."""
-    rc = roi_corners(roi)
-    c = roi_center(roi)
-    pose = matrix_to_pose(fit_similarity(rc, transfer_points(corners0, corners_t, rc)), c)
-    pose[:2] = transfer_points(corners0, corners_t, c[None])[0] - c
-    return pose_to_matrix(pose, c)
 
 
 def residual_dataset(n_sequences: int, frames_per_sequence: int, seed0: int = TRAIN_SEED0, progress: bool = True,

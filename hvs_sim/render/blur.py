@@ -19,10 +19,13 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from hvs_sim.camera_model import BLUR_STEP_PX, FIELD_MAX_TAPS
+from hvs_sim.render.camera import CameraPose, project
+from hvs_sim.sensor import BLUR_STEP_PX, FIELD_MAX_TAPS
 
 FIELD_STRIDE = 2  # the paths are found every this many pixels and interpolated between (the field is smooth but at
 # depth edges, where the gather is approximate anyway): a quarter of the arithmetic
+PERSON_PROBE_HEIGHTS = (0.5, 1.2, 1.7)  # m above the feet: points whose image motion sets the blur sampling
+BLUR_PROBE_MARGIN = 0.25  # ... counted while within this fraction of the image size outside the frame
 
 
 @dataclass(frozen=True)
@@ -49,7 +52,9 @@ def camera_motion(cam_mid: Rigid, cam_then: Rigid, body_mid: Rigid | None = None
                   body_then: Rigid | None = None) -> np.ndarray:
     """4×4 map from mid-exposure camera coordinates to the camera coordinates of another instant, of a point fixed
     in the world (no body) or riding on a body that moved from body_mid to body_then."""
-    world = np.eye(4) if body_mid is None else body_then.matrix() @ np.linalg.inv(body_mid.matrix())
+    # body_then comes with body_mid
+    world = np.eye(4) if body_mid is None else \
+        body_then.matrix() @ np.linalg.inv(body_mid.matrix())  # type: ignore[union-attr]
     return np.linalg.inv(cam_then.matrix()) @ world @ cam_mid.matrix()
 
 
@@ -92,7 +97,8 @@ def displacement(u_start: np.ndarray, u_end: np.ndarray, shape: tuple[int, int],
     if stride > 1:
         xs, ys = np.meshgrid(np.arange(shape[1], dtype=np.float32) / stride,
                              np.arange(shape[0], dtype=np.float32) / stride)
-        v = cv2.remap(v, xs, ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        # float32 in, float32 out (OpenCV's stubs widen the dtype)
+        v = cv2.remap(v, xs, ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)  # type: ignore[assignment]
     return v
 
 
@@ -118,3 +124,25 @@ def blur_along_paths(linear: np.ndarray, v: np.ndarray, taps: int) -> np.ndarray
                 dst=out)
     out /= np.float32(taps)
     return out
+
+
+def exposure_motion_px(scene, K: np.ndarray, people: bool, exposure_s: float, size: tuple[int, int]) -> float:
+    """Largest image motion during the exposure (the last `exposure_s` s of `scene`) of the target centre and the
+    people (people: those shown), of the points within BLUR_PROBE_MARGIN of the frame (size: W, H): what sets how
+    finely the exposure is sampled (`SensorModel.samples_for_motion`)."""
+    now = _probe_points_px(scene, K, people)
+    with scene.rewound(exposure_s):
+        then = _probe_points_px(scene, K, people)
+    d = np.linalg.norm(now - then, axis=1)
+    margin = BLUR_PROBE_MARGIN * np.array(size)
+    inside = np.all((now > -margin) & (now < list(size) + margin), axis=1)
+    d = d[inside & np.isfinite(d)]
+    return float(d.max()) if d.size else 0.0
+
+
+def _probe_points_px(scene, K: np.ndarray, people: bool) -> np.ndarray:
+    pts = [scene.target_center_world()]
+    for pos, R in (scene.people_poses() if people else []):
+        pts += [pos + R @ np.array([0.0, 0.0, z]) for z in PERSON_PROBE_HEIGHTS]
+    position, R_cv = scene.camera_pose_cv()
+    return project(K, CameraPose(R_cv, position), np.array(pts))

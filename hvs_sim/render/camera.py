@@ -11,8 +11,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from hvs_sim.camera_model import distort_points, undistort_points
-from hvs_sim.geometry import mujoco_to_opencv
+from hvs_sim.sensor import distort_points, undistort_points
 
 
 def intrinsics(width: int, height: int, fovy_deg: float) -> np.ndarray:
@@ -27,10 +26,6 @@ class CameraPose:
 
     R: np.ndarray
     t: np.ndarray
-
-    @staticmethod
-    def from_mujoco(xpos: np.ndarray, xmat: np.ndarray) -> CameraPose:
-        return CameraPose(R=mujoco_to_opencv(xmat), t=np.asarray(xpos, float).copy())
 
     def to_camera(self, points_world: np.ndarray) -> np.ndarray:
         return (np.atleast_2d(np.asarray(points_world, float)) - self.t) @ self.R
@@ -49,10 +44,12 @@ def transfer_points(corners_from: np.ndarray, corners_to: np.ndarray, pts: np.nd
     undistorted views only: points are undistorted first and distorted again after, so it stays exact.
     """
     if distortion:
-        corners_from, corners_to, pts = (undistort_points(K, distortion, a) for a in (corners_from, corners_to, pts))
+        # K is given wherever distortion is (Renderer.transfer)
+        corners_from, corners_to, pts = (undistort_points(K, distortion, a)  # type: ignore[arg-type]
+                                         for a in (corners_from, corners_to, pts))
     H = cv2.getPerspectiveTransform(np.asarray(corners_from, np.float32), np.asarray(corners_to, np.float32))
     out = cv2.perspectiveTransform(np.asarray(pts, np.float64).reshape(1, -1, 2), H)[0]
-    return distort_points(K, distortion, out) if distortion else out
+    return distort_points(K, distortion, out) if distortion else out  # type: ignore[arg-type]  # K: as above
 
 
 def project(K: np.ndarray, pose: CameraPose, points_world: np.ndarray) -> np.ndarray:

@@ -1,6 +1,6 @@
 """RGB and segmentation renders of the eye camera, and exact per-frame ground truth.
 
-RGB frames go through the scenario's camera model (`hvs_sim.camera_model`): motion blur (along the image motion
+RGB frames go through the scenario's camera model (`hvs_sim.sensor`): motion blur (along the image motion
 field of one render, `hvs_sim.render.blur`, or from sub-frame renders over the exposure), lens distortion, auto-exposure, sensor noise, JPEG. Ground
 truth comes from geometry only; with lens distortion it is projected through the same model.
 """
@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass
 
 import cv2
 import mujoco
@@ -17,15 +16,6 @@ import numpy as np
 from dm_control.mujoco import engine
 from dm_control.mujoco.wrapper import core as mj_core
 
-from hvs_sim.camera_model import (
-    STILL_STREAM,
-    SensorState,
-    decode,
-    distort_points,
-    distortion_maps,
-    encode,
-    light_scale,
-)
 from hvs_sim.gl import check_not_forked_after_rendering, note_rendering
 from hvs_sim.render.blur import (
     FIELD_STRIDE,
@@ -33,51 +23,31 @@ from hvs_sim.render.blur import (
     blur_along_paths,
     camera_motion,
     displacement,
+    exposure_motion_px,
     motion_paths,
     pixel_rays,
     taps_for,
 )
 from hvs_sim.render.camera import CameraPose, intrinsics, project, transfer_points
+from hvs_sim.render.truth import GroundTruth, boxes_may_cover, count_inside, outline_box
 from hvs_sim.scene.parts import OCCLUDER_GROUP, TARGET_GROUP
 from hvs_sim.scene.world import Scene
+from hvs_sim.sensor import (
+    STILL_STREAM,
+    SensorModel,
+    SensorState,
+    decode,
+    distort_points,
+    distortion_maps,
+    encode,
+    light_scale,
+)
 from hvs_sim.validate import check_number
 
-PERSON_PROBE_HEIGHTS = (0.5, 1.2, 1.7)  # m above the feet: points whose image motion sets the blur sampling
-CUBE_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
-MIN_DEPTH_M = 1e-3  # a person's geom closer to the camera plane than this may cover anything
-OUTLINE_SHIFT = 4  # the target's outline is rasterised with 2^-4 px vertex precision
-OUTLINE_SUBPIXEL = 1 << OUTLINE_SHIFT
-SEG_BOX_MARGIN_PX = 12  # the occlusion count decodes the target's outline box grown by this: its 4 mm thick edges show
 MAX_STILL_FRAMES = 256  # still_average: more frames than a user would grab at the goal
-BLUR_PROBE_MARGIN = 0.25  # ... counted while within this fraction of the image size outside the frame
 PERSON_DEPTH_TOL_RAW = 1e-6  # field blur: a pixel is a person's where the people-only render's raw depth is the full
 # render's (the same fragment: the same value, up to this)
 BODY_BOX_MARGIN_M = 0.005  # field blur: a point within this of the moving wall's boxes rides on the wall
-
-
-@dataclass(frozen=True)
-class GroundTruth:
-    """What is true at one frame. Pixel values use the pixel-centre convention."""
-
-    frame: int
-    time: float
-    center: np.ndarray  # (2,) projected centre of the target flag
-    corners: np.ndarray  # (4, 2) TL, TR, BR, BL
-    occlusion: float  # share of the target's pixels hidden by people, from segmentation renders
-    visible_px: int | None  # None: not counted (ground_truth(counts=False) with nobody over the target)
-    full_px: int | None
-    camera: CameraPose
-    target_depth: float  # z of the target centre in the camera frame (m)
-    joint_positions: np.ndarray
-    target_world: np.ndarray | None = None  # (4, 3) the target's corners in the world (m), TL, TR, BR, BL
-
-    def as_row(self) -> dict:
-        return {
-            "frame": self.frame, "time": round(self.time, 6), "cx": self.center[0], "cy": self.center[1],
-            **{f"{a}{i}": self.corners[i, j] for i in range(4) for j, a in enumerate("xy")},
-            "occlusion": self.occlusion, "visible_px": self.visible_px, "full_px": self.full_px,
-            "depth": self.target_depth,
-        }
 
 
 SCENE_VIEW_AZIMUTH_DEG = 50.0  # the third-person view looks past the arm's side at the wall ...
@@ -87,6 +57,8 @@ SCENE_VIEW_DISTANCE = 2.6  # ... this many camera-to-target distances away
 
 class Renderer:
     """Renders the scene's eye camera. Segmentation renders give the exact occlusion fraction."""
+
+    _view: engine.MovableCamera  # scene_view's camera, set at its first call (absent before)
 
     def __init__(self, scene: Scene, people: bool = True, noise_seed: int | None = None):
         """people=False: the people are left out of the RGB frames (a capture of the clear scene, such as
@@ -106,7 +78,7 @@ class Renderer:
         self._show_people.geomgroup[OCCLUDER_GROUP] = 1
         self._hide_people = mj_core.MjvOption()
         self._hide_people.geomgroup[OCCLUDER_GROUP] = 0
-        self.sensor = cam.sensor
+        self.sensor: SensorModel = cam.sensor  # type: ignore[assignment]  # CameraConfig resolves a preset name
         self._ideal = self.sensor.is_ideal  # frozen: checked once, not per frame
         self._noise_seed = None if noise_seed is None else int(noise_seed)
         self._state = None if self._ideal else SensorState(self.sensor, self.noise_seed, (self.height, self.width))
@@ -175,7 +147,9 @@ class Renderer:
             self._state = SensorState(self.sensor, self.noise_seed, (self.height, self.width))  # a new episode
         linear = self._exposure()
         t1 = time.perf_counter()
-        frame = self._state.capture(linear, scene.frame_index, scene.time, 1.0 / scene.scenario.fps)
+        # _state is None only for the ideal camera, whose frames return before
+        frame = self._state.capture(  # type: ignore[union-attr]
+            linear, scene.frame_index, scene.time, 1.0 / scene.scenario.fps)
         self.stage_ms = {"light": 1e3 * (t1 - t0), "sensor": 1e3 * (time.perf_counter() - t1)}
         self._last = (key, frame)
         return frame.copy()
@@ -220,7 +194,7 @@ class Renderer:
             return linear
         offsets = self.sensor.exposure_offsets(samples)
         self.blur_samples = len(offsets)
-        linear = None
+        linear = None  # type: ignore[assignment]  # the first sub-frame's render replaces it
         try:
             for dt in offsets:
                 with scene.rewound(float(dt)):
@@ -360,7 +334,7 @@ class Renderer:
         """The mean of `n` frames of the scene held still (uint8 RGB), as a user teaching a goal image grabs a
         few frames at the goal and averages them: the camera's noise, which a single frame freezes into a
         template, falls by ~√n (with the JPEG artefacts it causes; those of the clean picture stay). Each frame
-        has its own noise (camera_model.STILL_STREAM, apart from the episode's frames). The `ideal` camera's
+        has its own noise (sensor.STILL_STREAM, apart from the episode's frames). The `ideal` camera's
         frames are all the same render."""
         check_number("still frames", n, 1, MAX_STILL_FRAMES, integer=True)
         if self._ideal:
@@ -371,7 +345,7 @@ class Renderer:
         return np.rint(acc / np.float32(n)).astype(np.uint8)
 
     def still_frames(self, n: int) -> Iterator[np.ndarray]:
-        """`n` frames (uint8 RGB) of the scene held still, each with its own noise (camera_model.STILL_STREAM), as
+        """`n` frames (uint8 RGB) of the scene held still, each with its own noise (sensor.STILL_STREAM), as
         still_average averages them: what a tracker sees frame by frame from a camera that does not move."""
         check_number("still frames", n, 1, MAX_STILL_FRAMES, integer=True)
         return self._still_frames(n)
@@ -385,7 +359,8 @@ class Renderer:
         scene = self.scene
         linear = self._exposure()  # nothing moves between the frames: one exposure, n captures
         for k in range(n):
-            yield self._state.capture(linear, k, scene.time, 1.0 / scene.scenario.fps, stream=STILL_STREAM)
+            yield self._state.capture(linear, k, scene.time, 1.0 / scene.scenario.fps,  # type: ignore[union-attr]
+                                      stream=STILL_STREAM)  # (not ideal: returned above)
 
     @property
     def noise_seed(self) -> int:
@@ -404,23 +379,11 @@ class Renderer:
         m.vis.headlight.ambient[:] = self._light0[3] * k
 
     def _exposure_motion_px(self) -> float:
-        """Largest image motion during the exposure of the target centre and the people (for blur sampling)."""
+        """Largest image motion during the exposure (`blur.exposure_motion_px`; 0 when nothing can blur)."""
         if self.sensor.exposure_ms <= 0 or self.sensor.blur_max_samples == 1:
             return 0.0
-        now = self._moving_points_px()
-        with self.scene.rewound(self.sensor.exposure_ms * 1e-3):
-            then = self._moving_points_px()
-        d = np.linalg.norm(now - then, axis=1)
-        margin = BLUR_PROBE_MARGIN * np.array([self.width, self.height])
-        inside = np.all((now > -margin) & (now < [self.width, self.height] + margin), axis=1)
-        d = d[inside & np.isfinite(d)]
-        return float(d.max()) if d.size else 0.0
-
-    def _moving_points_px(self) -> np.ndarray:
-        pts = [self.scene.target_center_world()]
-        for pos, R in (self.scene.people_poses() if self.people else []):
-            pts += [pos + R @ np.array([0.0, 0.0, z]) for z in PERSON_PROBE_HEIGHTS]
-        return project(self.K, self.camera_pose(), np.array(pts))
+        return exposure_motion_px(self.scene, self.K, self.people, self.sensor.exposure_ms * 1e-3,
+                                  (self.width, self.height))
 
     def transfer(self, corners_from: np.ndarray, corners_to: np.ndarray, pts: np.ndarray) -> np.ndarray:
         """`transfer_points` through this camera's lens (exact with distortion too)."""
@@ -483,12 +446,7 @@ class Renderer:
         the target's edge can a pixel be counted differently from a second render with the people hidden
         (test_render: within 0.01 of occlusion); with no person on the target the two agree exactly.
         """
-        uv = outline_px
-        box = None
-        if np.all(np.isfinite(uv)):
-            x0, y0 = np.clip(np.floor(uv.min(axis=0)).astype(int) - SEG_BOX_MARGIN_PX, 0, [self.width, self.height])
-            x1, y1 = np.clip(np.ceil(uv.max(axis=0)).astype(int) + SEG_BOX_MARGIN_PX, 0, [self.width, self.height])
-            box = (slice(y0, y1), slice(x0, x1)) if x1 > x0 and y1 > y0 else (slice(0, 0), slice(0, 0))
+        box = outline_box(outline_px, self.width, self.height)
         # the target and the people only (nothing else is ever in front of the target: a render of them shades few
         # fragments), decoded within the target's outline box, where all its pixels are (the counts are those of
         # the whole view; 15 → 3 ms at 640×480 with a person in view); without an outline, the whole frame
@@ -497,32 +455,16 @@ class Renderer:
         visible = int(np.count_nonzero((ids == self._target_id) & is_geom))
         if not self.scene.people or box is None or ids.size == 0:
             return visible, visible
-        outline = np.zeros(ids.shape, np.uint8)
-        cv2.fillPoly(outline, [np.round((uv - [x0, y0]) * OUTLINE_SUBPIXEL).astype(np.int32)], 1,
-                     lineType=cv2.LINE_8, shift=OUTLINE_SHIFT)
         person = self._occluder_geom[np.clip(ids, 0, len(self._occluder_geom) - 1)] & is_geom & (ids >= 0)
-        return visible, visible + int(np.count_nonzero(person & (outline > 0)))
+        return visible, visible + count_inside(person, outline_px, box)
 
     def people_may_cover_target(self, pose: CameraPose, outline_px: np.ndarray) -> bool:
-        """False only when no person's geom can appear over the target in the (undistorted) view: each geom
-        lies in its bounding box (MuJoCo's geom_aabb, posed), whose image is the hull of its projected
-        corners (perspective keeps convex sets convex in front of the camera), and no such hull meets the
-        target's image (outline_px: `target_outline`)."""
+        """False only when no person's geom can appear over the target in the (undistorted) view
+        (`truth.boxes_may_cover`; outline_px: `target_outline`)."""
         if not self.scene.people:
             return False
-        m, d = self.scene.physics.model, self.scene.physics.data
-        aabb = np.asarray(m.geom_aabb)[self._occluder_geom]  # (G, 6): centre, half sizes, geom frame
-        local = aabb[:, None, :3] + aabb[:, None, 3:] * CUBE_CORNERS[None]  # (G, 8, 3)
-        xmat = np.asarray(d.geom_xmat)[self._occluder_geom].reshape(-1, 3, 3)
-        world = np.asarray(d.geom_xpos)[self._occluder_geom][:, None, :] + local @ xmat.transpose(0, 2, 1)
-        cam = (world - pose.t) @ pose.R
-        if np.any(cam[..., 2] <= MIN_DEPTH_M):
-            return True  # a box reaches the camera plane: its image is unbounded
-        uv = cam[..., :2] / cam[..., 2:] * [self.K[0, 0], self.K[1, 1]] + [self.K[0, 2], self.K[1, 2]]
-        if not np.all(np.isfinite(outline_px)):
-            return True
-        lo, hi = outline_px.min(axis=0) - 1.0, outline_px.max(axis=0) + 1.0
-        return bool(np.any(np.all((uv.max(axis=1) >= lo) & (uv.min(axis=1) <= hi), axis=1)))
+        return boxes_may_cover(self.scene.physics.model, self.scene.physics.data, self._occluder_geom, pose, self.K,
+                               outline_px)
 
     def ground_truth(self, occlusion: bool = True, counts: bool = True) -> GroundTruth:
         """Projected target geometry and (if asked) the occlusion from one segmentation render
@@ -537,11 +479,12 @@ class Renderer:
         visible = full = 0
         occ = float("nan")
         outline = self.target_outline(pose, corners_w) if occlusion else None
-        if occlusion and not counts and not self.people_may_cover_target(pose, outline):
-            visible = full = None
+        # outline is set whenever occlusion is
+        if occlusion and not counts and not self.people_may_cover_target(pose, outline):  # type: ignore[arg-type]
+            visible = full = None  # type: ignore[assignment]  # not counted (GroundTruth's None)
             occ = 0.0
         elif occlusion:
-            visible, full = self.occlusion_counts(outline)
+            visible, full = self.occlusion_counts(outline)  # type: ignore[arg-type]
             occ = 1.0 - visible / full if full > 0 else 1.0
         return GroundTruth(
             frame=self.scene.frame_index, time=self.scene.time, center=center, corners=corners,

@@ -13,8 +13,10 @@ import cv2
 import numpy as np
 
 from hvs_sim.errors import OutputError
-from hvs_sim.outputs import record, settle, temporary_beside, write_atomic, write_image, write_with
-from hvs_sim.render.renderer import GroundTruth, Renderer
+from hvs_sim.manifest import record
+from hvs_sim.outputs import settle, temporary_beside, write_atomic, write_image, write_with
+from hvs_sim.render.renderer import Renderer
+from hvs_sim.render.truth import GroundTruth
 from hvs_sim.scene.scenarios import Scenario
 from hvs_sim.scene.world import Scene
 
@@ -74,7 +76,10 @@ def write_sequence(scenario: Scenario, out_dir: Path, fmt: str = "mp4", n_frames
         writer = Mp4Writer(video_tmp, scenario.fps, (cam.width, cam.height), shown=out_dir / "frames.mp4")
     else:
         (out_dir / "frames").mkdir(exist_ok=True)
-    rows, cams, joints, corners = [], [], [], []
+    rows: list[dict] = []
+    cams: list[np.ndarray] = []
+    joints: list[np.ndarray] = []
+    corners: list[np.ndarray] = []
     done = interrupted = False
     try:
         _render_frames(scenario, total, progress, writer, out_dir, rows, cams, joints, corners, on_frame, on_start)

@@ -68,7 +68,7 @@ def read_rgb(path: str | Path, what: str = "image", whole: bool = False) -> np.n
         w = h = None
     if whole and w is not None:
         _check_whole(p, what)
-    if w is not None and w * h > MAX_IMAGE_PIXELS:
+    if w is not None and w * h > MAX_IMAGE_PIXELS:  # type: ignore[operator]  # w and h are None together
         raise InputError(f"{what} {str(p)!r} is {w}×{h} px by its header, over the {MAX_IMAGE_PIXELS:,} pixels "
                          "accepted; give a smaller image")
     img = cv2.imread(str(p), cv2.IMREAD_ANYDEPTH | cv2.IMREAD_COLOR)  # EXIF orientation applied

@@ -13,11 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
-from hvs_sim.camera_model import SensorModel, sensor_preset
 from hvs_sim.errors import ConfigError, InputError, choice_error
 from hvs_sim.scene.flag_art import FLAG_NAMES
 from hvs_sim.scene.people import PERSON_STYLES
 from hvs_sim.scene.textures import NATURAL_TEXTURES, TEXTURE_SETS
+from hvs_sim.sensor import SensorModel, sensor_preset
 
 MOUNTS = ("handheld", "arm")
 # what fills the wall beside the target: the 15 flags, flags and natural textures alternating, or a texture set

@@ -3,38 +3,30 @@
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 from contextlib import contextmanager
 
 import mujoco
 import numpy as np
-from absl import logging as absl_logging
 from dm_control import mjcf
-from dm_control.utils import inverse_kinematics
 
 from hvs_sim.errors import ConfigError, InputError
 from hvs_sim.geometry import mat_to_quat, mujoco_to_opencv, offset_pose, opencv_to_mujoco, rotation_vector
 from hvs_sim.scene.arms import check_frame_rate, make_arm_rig
-from hvs_sim.scene.flag_art import FLAG_NAMES
-from hvs_sim.scene.images import TARGET_MAX_ASPECT, crop_to_aspect, list_images, load_image
+from hvs_sim.scene.ik import range_middle, solve_arm_ik, unwound
 from hvs_sim.scene.parts import FlagWall, HandheldRig, Person
-from hvs_sim.scene.scenarios import MAX_TARGET_WIDTH, Scenario, ShakeModel, occluder_lateral
-from hvs_sim.scene.textures import TEXTURE_SETS, natural_texture
+from hvs_sim.scene.scenarios import Scenario, ShakeModel, occluder_lateral
+from hvs_sim.scene.wall import wall_pictures
 
 # Reference camera: 1.3 m high, looking along world +X, upright. Its OpenCV rotation has
 # x_cam = −Y_world (right), y_cam = −Z_world (down), z_cam = +X_world (forward).
 REFERENCE_POSITION = np.array([0.40, 0.0, 1.30])
 IK_CONTINUATION_STEPS = 4  # IK solves from the reference pose to the start pose (stays on the home branch)
-IK_PROGRESS_THRESH = 1e4  # dm_control stops an IK whose step is this many times its error drop; near the
-# wrist singularity progress is slow but real, and the default (20) gave up on reachable poses
-IK_LIMIT_STEPS, IK_LIMIT_DAMPING, IK_LIMIT_INSET = 400, 1e-3, 1e-3  # a redundant arm's IK brought into its limits
 IK_RESTARTS, IK_HOME_SEEDS, IK_RESTART_SEED = 24, 24, 7  # seeded IK restarts: start pose when continuation fails, home
 WALK_BOB_M, WALK_STEP_HZ = 0.01, 1.0  # a walking person's vertical bob (m) and its rate
 ROOM_WALL_BEHIND_M = 0.25  # the room's back wall behind the flag board (m)
 REFERENCE_R_CV = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 PHYSICS_SUBSTEPS = 20  # physics steps per frame (timestep = 1 / (fps · substeps))
-WALL_SEED_STRIDE = 1000  # texture seed of wall slot k: stride · scenario seed + k
 
 
 class Scene:
@@ -272,7 +264,7 @@ class Scene:
         """Joint angles that put the wrist camera at (position, R_cv); raises ConfigError if unreachable."""
         if not self.is_arm:
             raise ConfigError("inverse kinematics needs mount='arm'")
-        return _solve_ik(self.mjcf_root, self.physics, self.rig, position, R_cv, q0)
+        return solve_arm_ik(self.mjcf_root, self.physics, self.rig, position, R_cv, q0)
 
     def camera_jacobian(self) -> np.ndarray:
         """(6, n) world-frame Jacobian [linear; angular] of the camera frame w.r.t. the arm joints."""
@@ -415,17 +407,6 @@ class Scene:
         self._apply_time()
 
 
-SLOT_TEXELS = (450, 300)  # (width, height) of a natural-texture picture beside the target (3:2 like a flag)
-TARGET_TEXELS = 600  # width of a natural-texture target
-
-
-@functools.lru_cache(maxsize=256)
-def _texture(name: str, width: int, height: int, seed: int) -> np.ndarray:
-    img = natural_texture(name, width=width, height=height, seed=seed)
-    img.setflags(write=False)
-    return img
-
-
 def seed_draws_model(scenario: Scenario) -> bool:
     """Whether the scenario's seed draws part of its compiled model: the people's looks, or per-seed textures on the
     wall or as the target (wall_pictures). A flag wall without people is the same model for every seed."""
@@ -441,137 +422,12 @@ def model_key(scenario: Scenario) -> Scenario:
     return key if seed_draws_model(scenario) else dataclasses.replace(key, seed=0)
 
 
-def wall_pictures(scenario: Scenario) -> tuple[str | np.ndarray, list | None]:
-    """(target, the 14 other slots) for FlagWall: flag names or RGB images, a pure function of the scenario.
-
-    The wall's textures change with the seed (a new set of posters per benchmark seed); a flag wall
-    is the same for every seed, as before.
-    """
-    if scenario.target_image:
-        target = load_image(scenario.target_image, "target image", max_aspect=TARGET_MAX_ASPECT)
-        height = scenario.target_width * target.shape[0] / target.shape[1]
-        if height > MAX_TARGET_WIDTH:
-            raise ConfigError(f"target image {scenario.target_image!r} would be {height:.2f} m tall at target_width "
-                              f"{scenario.target_width} m; at most {MAX_TARGET_WIDTH} m: give a smaller target_width")
-    elif scenario.target_texture:
-        target = _texture(scenario.target_texture, TARGET_TEXELS, TARGET_TEXELS * 2 // 3, scenario.seed)
-    else:
-        target = scenario.target_flag
-    n_others = FlagWall.ROWS * FlagWall.COLS - 1
-    flags = [n for n in FLAG_NAMES if n != scenario.target_flag][:n_others]
-    aspect = FlagWall.FLAG_H / FlagWall.FLAG_W
-    if scenario.wall_images:
-        files = list_images(scenario.wall_images)
-        others = [crop_to_aspect(load_image(files[k % len(files)], "wall image"), aspect) for k in range(n_others)]
-        return target, others
-    if scenario.wall == "flags":
-        return target, (None if isinstance(target, str) else flags)
-    names = TEXTURE_SETS["natural" if scenario.wall == "mixed" else scenario.wall]
-    others = []
-    for k in range(n_others):
-        if scenario.wall == "mixed" and k % 2 == 0:
-            others.append(flags[k])
-            continue
-        name = names[(k + scenario.seed) % len(names)]
-        others.append(_texture(name, *SLOT_TEXELS, WALL_SEED_STRIDE * scenario.seed + k))
-    return target, others
-
-
-def _solve_ik(root, physics, rig, position, R_cv, q0) -> np.ndarray:
-    scratch = physics.copy(share_model=True)
-    joints = scratch.bind(rig.joints)
-    if q0 is not None:
-        joints.qpos = q0
-    names = [j.full_identifier for j in rig.joints]
-    quat = mat_to_quat(opencv_to_mujoco(R_cv))
-    level = absl_logging.get_verbosity()
-    absl_logging.set_verbosity(absl_logging.ERROR)  # a failed solve is an answer here (restarts, a refusal), not news
-    try:
-        res = inverse_kinematics.qpos_from_site_pose(
-            scratch, rig.camera_site.full_identifier, target_pos=position, target_quat=quat,
-            joint_names=names, tol=1e-10, max_steps=2000, inplace=True, progress_thresh=IK_PROGRESS_THRESH)
-    finally:
-        absl_logging.set_verbosity(level)
-    if not res.success and res.err_norm > 1e-5:
-        raise ConfigError(f"camera pose {np.round(position, 3).tolist()} is out of the arm's reach (IK error {res.err_norm:.2g})")
-    q = scratch.bind(rig.joints).qpos.copy()
-    limited = physics.model.jnt_limited[physics.bind(rig.joints).element_id].astype(bool)
-    lo, hi = np.asarray(physics.bind(rig.joints).range, float).T
-    lower, upper = np.where(limited, lo, -np.inf), np.where(limited, hi, np.inf)
-    if q0 is not None:  # a joint that turns more than once: the turn nearest the start (the same pose)
-        q = unwound(q, q0, lower, upper)
-    if len(q) > 6 and np.any(limited & ((q < lo) | (q > hi))):  # a redundant arm: move along its self-motion
-        q = _into_limits(scratch, rig, q, position, quat, lower, upper)
-    if np.any(limited & ((q < lo) | (q > hi))):
-        raise ConfigError(f"camera pose {np.round(position, 3).tolist()} needs an arm configuration outside the "
-                          "joint limits")
-    return q
-
-
-def _middle(lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
-    """The middle of each joint's range; 0 for a joint without limits."""
-    limited = np.isfinite(lower) & np.isfinite(upper)
-    return np.where(limited, (np.where(limited, lower, 0.0) + np.where(limited, upper, 0.0)) / 2, 0.0)
-
-
 def _off_limits(scene: Scene, solutions: list[np.ndarray]) -> list[np.ndarray]:
     """IK restart solutions with each joint that turns more than once on the turn furthest from its limits (unwound
     toward the middle of its range): a restart's seed says nothing about which turn the arm should start on."""
     lower, upper, _ = scene.joint_limits()
-    middle = _middle(lower, upper)
+    middle = range_middle(lower, upper)
     return [unwound(q, middle, lower, upper) for q in solutions]
-
-
-def unwound(q: np.ndarray, ref: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
-    """q with each joint whose limits span a full turn or more (a UR's ±2π) moved by whole turns to the value nearest
-    `ref` within its limits: the same arm pose, a turn nearer where the arm is (an IK step) or further from the
-    limits it would otherwise run into (a restart). Joints without limits, or spanning under a turn, are left alone."""
-    q = np.array(q, float)
-    wide = np.isfinite(lower) & np.isfinite(upper) & (upper - lower >= 2 * np.pi - 1e-9)
-    for i in np.flatnonzero(wide):
-        turns = np.arange(np.ceil((lower[i] - q[i]) / (2 * np.pi)), np.floor((upper[i] - q[i]) / (2 * np.pi)) + 1)
-        if len(turns):
-            q[i] += 2 * np.pi * turns[np.argmin(np.abs(q[i] + 2 * np.pi * turns - ref[i]))]
-    return q
-
-
-def _into_limits(scratch, rig, q, position, quat, lo, hi, steps: int = IK_LIMIT_STEPS) -> np.ndarray:
-    """The IK answer of a redundant arm moved along its self-motion into its joint limits: damped least squares on
-    the pose error, the null space pulling each joint toward the middle of its range, the joints clipped just inside
-    their limits. dm_control's IK ignores limits, and a 7-joint arm's first answer is usually outside them; its
-    null space has room to come back in with the camera where it was. Returns q (checked by the caller)."""
-    m, d = scratch.model.ptr, scratch.data.ptr
-    site = scratch.bind(rig.camera_site).element_id
-    dofs = scratch.bind(rig.joints).dofadr
-    qpos = scratch.bind(rig.joints)
-    mid = np.where(np.isfinite(lo) & np.isfinite(hi), _middle(lo, hi), q)
-    span = np.where(np.isfinite(hi - lo), hi - lo, 2 * np.pi)
-    inside_lo, inside_hi = lo + IK_LIMIT_INSET, hi - IK_LIMIT_INSET
-    jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
-    target_R = np.zeros(9)
-    mujoco.mju_quat2Mat(target_R, np.asarray(quat, float))
-    target_R = target_R.reshape(3, 3)
-
-    def pose_error() -> np.ndarray:  # (position; rotation vector, small angles) from the site to the target pose
-        R = d.site_xmat[site].reshape(3, 3)
-        return np.concatenate([position - d.site_xpos[site], 0.5 * sum(np.cross(R[:, k], target_R[:, k]) for k in range(3))])
-
-    for _ in range(steps):
-        qpos.qpos = q
-        mujoco.mj_kinematics(m, d)
-        mujoco.mj_comPos(m, d)
-        err = pose_error()
-        mujoco.mj_jacSite(m, d, jacp, jacr, site)
-        J = np.vstack([jacp[:, dofs], jacr[:, dofs]])
-        J_pinv = J.T @ np.linalg.inv(J @ J.T + IK_LIMIT_DAMPING ** 2 * np.eye(6))
-        pull = -(q - mid) / span ** 2
-        q = np.clip(q + J_pinv @ err + (np.eye(len(q)) - J_pinv @ J) @ pull, inside_lo, inside_hi)
-    qpos.qpos = q
-    mujoco.mj_kinematics(m, d)
-    if np.linalg.norm(pose_error()) > 1e-6:
-        raise ConfigError(f"camera pose {np.round(position, 3).tolist()} needs an arm configuration outside the "
-                          "joint limits")
-    return q
 
 
 def _restart_seeds(scene: Scene, n: int, seed: int) -> list[np.ndarray]:

@@ -85,8 +85,3 @@ TRACKERS: dict[str, TrackerSpec] = {
 TRACKER_NAMES = tuple(TRACKERS)
 METHOD_NAMES = ("sift", "ecc", "deep_lk", "deep_lk_residual", "hybrid")  # the methods, without ablations
 VARIANT_NAMES = tuple(n for n in TRACKERS if n not in METHOD_NAMES)
-
-
-def tracker_colour(name: str) -> str:
-    spec = TRACKERS.get(name)
-    return spec.colour if spec else "#000000"

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hvs_sim.camera_model import encode_jpeg
+from hvs_sim.sensor import encode_jpeg
 
 WORLD, CAMERA, TARGET, IMAGE = "world", "camera_optical", "target", "camera_image"
 JPEG_QUALITY = 90

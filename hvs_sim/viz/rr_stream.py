@@ -27,8 +27,8 @@ import os
 import numpy as np
 import rerun as rr
 
-from hvs_sim.camera_model import encode_jpeg
 from hvs_sim.errors import OutputError, StateError
+from hvs_sim.sensor import encode_jpeg
 from hvs_sim.validate import check_number
 
 PLOT_FLUSH_STEPS = 15  # plotted values are sent every this many steps (0.5 s at 30 Hz) to a live viewer ...
@@ -40,7 +40,7 @@ FINISH_TIMEOUT_S = 20.0  # the longest a recording's last flush may take; a full
 
 
 def jpeg(frame: np.ndarray, quality: int = JPEG_QUALITY) -> rr.EncodedImage:
-    """An RGB (H×W×3) uint8 frame as a JPEG image for rerun (camera_model.encode_jpeg)."""
+    """An RGB (H×W×3) uint8 frame as a JPEG image for rerun (sensor.encode_jpeg)."""
     return rr.EncodedImage(contents=encode_jpeg(frame, quality).tobytes(), media_type="image/jpeg")
 
 

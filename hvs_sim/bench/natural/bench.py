@@ -14,9 +14,9 @@ from hvs_sim.bench.natural.picture import MOTIONS
 from hvs_sim.bench.natural.sequence import NaturalSequence, make_natural_sequence
 from hvs_sim.bench.natural.sources import ALL_KINDS, DEFAULT_SEEDS, NATURAL_KINDS, NATURAL_SOURCES, OCCLUDED_KINDS
 from hvs_sim.bench.pool import collect_jobs, config_json, write_frames_csv
-from hvs_sim.camera_model import REALISTIC_PRESET, sensor_preset
 from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.outputs import save_figure, write_atomic
+from hvs_sim.sensor import REALISTIC_PRESET, sensor_preset
 
 # ---------------------------------------------------------------------------------------------------------------------
 # The benchmark

@@ -10,8 +10,8 @@ import cv2
 import numpy as np
 
 from hvs_sim.bench.natural.sources import ALL_KINDS, FPS, T_REF_S, _u
-from hvs_sim.camera_model import decode, encode
 from hvs_sim.errors import choice_error
+from hvs_sim.sensor import decode, encode
 
 # ---------------------------------------------------------------------------------------------------------------------
 # The person close to the lens (sizes in units of the body's width B: arm to arm)

@@ -10,8 +10,8 @@ import cv2
 import numpy as np
 
 from hvs_sim.bench.natural.sources import PATH_STREAM, PICTURE_STREAM, _rng, _u
-from hvs_sim.camera_model import SensorModel, decode
 from hvs_sim.scene.textures import PHOTO_SOURCES, _photo_source, natural_texture
+from hvs_sim.sensor import SensorModel, decode
 
 # ---------------------------------------------------------------------------------------------------------------------
 # The picture and the hand-held camera
@@ -41,7 +41,7 @@ PERSPECTIVE_DRIFT = 0.3  # of PERSPECTIVE, per drift component
 # ×5 the scale drift (±18 % zoom over a sequence)
 MOTIONS = {"hand": (1.0, 1.0), "tilt": (3.5, 5.0)}  # name → (perspective gain, scale-drift gain)
 
-BLUR_STEP_PX = 1.5  # at most this image motion between two sub-frame warps (as camera_model.BLUR_STEP_PX)
+BLUR_STEP_PX = 1.5  # at most this image motion between two sub-frame warps (as sensor.BLUR_STEP_PX)
 MIN_BLUR_SAMPLES = 3  # when anything moves visibly during the exposure, at least this many
 MAX_BLUR_SAMPLES = 5
 BLUR_MIN_MOTION_PX = 0.3  # below this, the exposure's smear is invisible: one warp

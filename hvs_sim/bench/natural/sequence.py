@@ -24,7 +24,10 @@ from hvs_sim.bench.natural.sources import (
     _rng,
     _u,
 )
-from hvs_sim.camera_model import (
+from hvs_sim.errors import ConfigError, choice_error
+from hvs_sim.render.camera import intrinsics
+from hvs_sim.scene.textures import trackability
+from hvs_sim.sensor import (
     REALISTIC_PRESET,
     SensorState,
     distort_points,
@@ -34,9 +37,6 @@ from hvs_sim.camera_model import (
     sensor_preset,
     undistort_points,
 )
-from hvs_sim.errors import ConfigError, choice_error
-from hvs_sim.render.camera import intrinsics
-from hvs_sim.scene.textures import trackability
 from hvs_sim.tracking.frames import roi_center, roi_corners
 
 # ---------------------------------------------------------------------------------------------------------------------
@@ -155,7 +155,7 @@ def make_natural_sequence(source: str, kind: str, seed: int, n_frames: int = 150
                           size=(640, 480), motion: str = "hand") -> NaturalSequence:
     """A seeded hand-held sequence of a planar picture, optionally with a person crossing, pausing or standing beside.
 
-    source: one of NATURAL_SOURCES; kind: one of ALL_KINDS; camera: a `camera_model` preset (`ideal`
+    source: one of NATURAL_SOURCES; kind: one of ALL_KINDS; camera: a `sensor` preset (`ideal`
     gives clean frames); motion: one of MOTIONS. Returns a `NaturalSequence` (frames, roi, gt_track, occlusion, name).
     """
     start = time.perf_counter()

@@ -189,7 +189,8 @@ class _Tailor:
              cap_rings: int = CAP_RINGS) -> MeshData:
         """Mesh a tube into the material's part list; folds = (amplitude, around, along, envelope(n))."""
         n_around, n_along = DETAIL[detail]
-        gains = fold_gains(self.rng, n_along, n_around, *folds[:3], envelope=folds[3](n_along)) if folds else None
+        gains = fold_gains(self.rng, n_along, n_around, *folds[:3],  # type: ignore[misc]  # folds[:3]: three values
+                           envelope=folds[3](n_along)) if folds else None
         mesh = tube_mesh(tube, self.materials[key][1], n_around, n_along, gains, cap_rings)
         self.parts[key].append(mesh)
         return mesh
@@ -283,7 +284,8 @@ class _Tailor:
             self.tube(leg_key, "leg", Tube(_mirror(LEG_KNOTS, side), r, r, start="round", end=end), folds)
 
     def head(self, o: Outfit) -> None:
-        self.material("lips", rgb=tuple(int(LIP_SHADE * c) for c in o.skin), finish=SKIN_SHINE)
+        self.material("lips", rgb=tuple(int(LIP_SHADE * c) for c in o.skin),  # type: ignore[arg-type]  # 3 in, 3 out
+                      finish=SKIN_SHINE)
         self.material("sclera", rgb=SCLERA_RGB, finish=POLISH)
         self.material("iris", rgb=IRIS_RGB, finish=POLISH)
         frm, to, r = NECK

@@ -37,7 +37,7 @@ def woven(rng: np.random.Generator, size: int, warp: np.ndarray, weft: np.ndarra
     Each yarn is shaded as a cylinder that dips where it passes under a crossing yarn.
     """
     n, t = size // thread_px, thread_px
-    over = weave_over(*np.mgrid[0:n, 0:n], weave)  # rows are weft yarns
+    over = weave_over(*np.mgrid[0:n, 0:n], weave)  # type: ignore[call-arg]  # rows are weft yarns (mgrid: two arrays)
     warp_gain = 1.0 + YARN_SLUB * rng.standard_normal(n)
     weft_gain = 1.0 + YARN_SLUB * rng.standard_normal(n)
     slub = 1.0 + 0.5 * YARN_SLUB * periodic_noise(rng, (size, size), 2.0 * t, slub_stretch)
@@ -77,11 +77,11 @@ def _fine_weave_shade(rng: np.random.Generator, size: int) -> np.ndarray:
 
 def _bands(rng: np.random.Generator, n: int, n_colours: int, min_width: int, max_width: int) -> np.ndarray:
     """Colour index per yarn for a mirrored sett (tartans are symmetric about pivots) of n yarns."""
-    half = []
+    half: list[int] = []
     while len(half) < n // 2:
         half += [int(rng.integers(n_colours))] * int(rng.integers(min_width, max_width + 1))
-    half = np.array(half[: n // 2])
-    return np.concatenate([half, half[::-1]])
+    sett = np.array(half[: n // 2])
+    return np.concatenate([sett, sett[::-1]])
 
 
 def _stripe_sett(n: int, widths: tuple[int, ...]) -> np.ndarray:

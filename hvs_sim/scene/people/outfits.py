@@ -5,6 +5,7 @@ so that the same generator state always dresses the same person.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import cv2
 import numpy as np
@@ -118,7 +119,7 @@ def _pick(rng: np.random.Generator, options: tuple):
 
 
 def _jitter(rng: np.random.Generator, rgb: RGB, spread: float) -> RGB:
-    return tuple(int(np.clip(round(c * rng.uniform(1 - spread, 1 + spread)), 0, 255)) for c in rgb)
+    return cast(RGB, tuple(int(np.clip(round(c * rng.uniform(1 - spread, 1 + spread)), 0, 255)) for c in rgb))
 
 
 def _colour(rng: np.random.Generator, names: tuple[str, ...] = tuple(GARMENT_COLOURS), spread: float = 0.06) -> RGB:
@@ -132,6 +133,7 @@ def _distinct(rng: np.random.Generator, k: int, names: tuple[str, ...] = tuple(G
 
 def _fabric(rng: np.random.Generator, kind: str) -> Fabric:
     """A fabric of the given kind in colours that such cloth is usually made in."""
+    colours: tuple[RGB, ...]
     if kind == "denim":
         colours = (_jitter(rng, _pick(rng, INDIGO), 0.06), _jitter(rng, ECRU, 0.04))
     elif kind == "chambray":

@@ -169,7 +169,8 @@ def _poster(c: _Canvas) -> np.ndarray:
             ink = (250, 250, 246) if dark_ground else (30, 30, 34)
             _fit_text(img, _words(rng, 400), (x, y, rw, rh), font, ink, line_px, max(int(s), 1))
     paper_grain = 1 + 0.025 * _fbm(rng, h, w, 3 * s, 2)
-    img = cv2.GaussianBlur(img.astype(np.float32) * paper_grain[..., None], (0, 0), 0.5 * max(s, 0.5))
+    img = cv2.GaussianBlur(img.astype(np.float32) * paper_grain[..., None], (0, 0),  # type: ignore[assignment]
+                           0.5 * max(s, 0.5))  # float from here on
     return _sprinkle(rng, img, 1.5)
 
 
@@ -348,7 +349,8 @@ def _corkboard(c: _Canvas) -> np.ndarray:
         paper = cv2.warpAffine(note, rot, (w, h), flags=cv2.INTER_LINEAR)
         mask = cv2.warpAffine(np.ones((nh, nw), np.float32), rot, (w, h), flags=cv2.INTER_LINEAR)
         drop = rot.copy()
-        drop[:, 2] += NOTE_SHADOW_OFFSET_PX * s  # the shadow falls down-right, away from the lamp
+        # the shadow falls down-right, away from the lamp (rot is float64: getRotationMatrix2D)
+        drop[:, 2] += NOTE_SHADOW_OFFSET_PX * s  # type: ignore[arg-type]
         shadow = cv2.GaussianBlur(cv2.warpAffine(np.ones((nh, nw), np.float32), drop, (w, h)), (0, 0), 3 * s)
         img *= (1 - 0.45 * shadow)[..., None]
         img = img * (1 - mask[..., None]) + paper

@@ -329,7 +329,7 @@ class SensorState:
             metered = _meter(linear)
             if self.gain is None:
                 self._update_gain(metered, t, dt)
-            gain = self.gain
+            gain: float = self.gain  # type: ignore[assignment]  # set by _update_gain on the first frame
             self._update_gain(metered, t, dt)  # this frame's reading sets the next frame's gain
         else:
             gain = 1.0
@@ -404,7 +404,9 @@ def encode_jpeg(frame: np.ndarray, quality: int) -> np.ndarray:
 
 def jpeg(frame: np.ndarray, quality: int) -> np.ndarray:
     """Encode and decode an RGB uint8 frame as JPEG (`encode_jpeg`)."""
-    return cv2.cvtColor(cv2.imdecode(encode_jpeg(frame, quality), cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
+    # imdecode is None only for bytes that are not an image; encode_jpeg's always are
+    return cv2.cvtColor(cv2.imdecode(encode_jpeg(frame, quality), cv2.IMREAD_COLOR),  # type: ignore[arg-type]
+                        cv2.COLOR_BGR2RGB)
 
 
 # ---------------------------------------------------------------- lens distortion
