@@ -140,7 +140,7 @@ class SafetyGate:
                 self.closed_because, self.agreeing = why, []
         elif why is None and px is None:  # nothing to verify: the fault has passed
             self.closed_because = None
-        elif why is None and mode == "align":
+        elif why is None and mode == "align" and px is not None:
             if self.agreeing and np.linalg.norm(px - self.agreeing[0], axis=1).mean() > c.resume_px:
                 self.agreeing = []  # not where the first of them was: start counting again from this one
             self.agreeing.append(px)

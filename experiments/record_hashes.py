@@ -1,0 +1,116 @@
+"""Hash a fixed set of closed-loop episodes' records field by field, to show that a refactor changed no behaviour.
+
+    python experiments/record_hashes.py --out /tmp/before.json        # on the tree before the change
+    python experiments/record_hashes.py --check /tmp/before.json      # after: lists every field that differs
+
+The episodes cover the loop's paths: ground-truth IBVS; the hybrid on six DOF with a goal template, the near-goal
+switch and the feature filter through a walk-by (prediction, the safety rule's hold); PBVS; the pipelined loop; an
+outside tracker (the test package's KLT, when installed). Timings and wall times are left out (they are the
+machine's); everything else a StepRecord holds is hashed, floats by their bytes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import hashlib
+import json
+import sys
+
+import numpy as np
+import torch
+
+from hvs_sim.loop import LoopConfig, ServoLoop
+from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+
+CAM = CameraConfig(width=320, height=240)
+SKIP = {"timings", "wall_ms", "frame"}
+EPISODES = {  # name: (scenario, tracker, loop settings, steps)
+    "ground_truth_ibvs": ("clear", "ground_truth", {}, 60),
+    "hybrid_6dof_walk_by": ("walk_by", "hybrid", {"warp": "homography"}, 150),
+    "hybrid_6dof_pbvs": ("clear", "hybrid", {"warp": "homography", "controller": "pbvs"}, 60),
+    "hybrid_pipelined": ("pause", "hybrid", {"warp": "homography", "pipeline": True}, 120),
+    "klt_start_template": ("clear", "hvs_test_plugins.track:make", {"template_from": "start"}, 40),
+}
+TRACKER_KEYS = {"warp"}
+
+
+def _digest(value) -> str:
+    h = hashlib.sha256()
+
+    def feed(v):
+        if dataclasses.is_dataclass(v) and not isinstance(v, type):
+            for f in dataclasses.fields(v):
+                h.update(f.name.encode())
+                feed(getattr(v, f.name))
+        elif isinstance(v, np.ndarray):
+            h.update(str(v.dtype).encode() + str(v.shape).encode())
+            h.update(np.ascontiguousarray(v).tobytes())
+        elif isinstance(v, (list, tuple)):
+            h.update(b"[")
+            for x in v:
+                feed(x)
+            h.update(b"]")
+        elif isinstance(v, dict):
+            for k in sorted(v):
+                h.update(str(k).encode())
+                feed(v[k])
+        elif isinstance(v, float):
+            h.update(np.float64(v).tobytes())
+        elif hasattr(v, "__dict__") and not isinstance(v, (str, int, bool, type(None))):
+            feed(vars(v))
+        else:
+            h.update(repr(v).encode())
+
+    feed(value)
+    return h.hexdigest()[:16]
+
+
+def episode_hashes(name: str) -> dict[str, str]:
+    scenario, tracker, settings, steps = EPISODES[name]
+    tracker_settings = {k: v for k, v in settings.items() if k in TRACKER_KEYS}
+    loop_settings = {k: v for k, v in settings.items() if k not in TRACKER_KEYS}
+    cfg = LoopConfig(steps=steps, keep_frames=False, **loop_settings)
+    loop = ServoLoop(make_scenario(scenario, mount="arm", seed=3, camera=CAM), tracker, cfg, **tracker_settings)
+    per_field: dict[str, list] = {}
+    for r in loop:
+        for f in dataclasses.fields(r):
+            if f.name not in SKIP:
+                per_field.setdefault(f.name, []).append(getattr(r, f.name))
+    track_ms = [getattr(t, "ms", None) for t in per_field.get("track", [])]
+    if track_ms:  # a Track's own wall time is the machine's too
+        per_field["track"] = [None if t is None else dataclasses.replace(t, ms=0.0) for t in per_field["track"]]
+    return {k: _digest(v) for k, v in sorted(per_field.items())}
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--out", help="write the hashes here (JSON)")
+    p.add_argument("--check", help="compare with hashes written before; exit 1 on any difference")
+    p.add_argument("--episodes", nargs="*", default=list(EPISODES), choices=list(EPISODES))
+    args = p.parse_args()
+    torch.set_num_threads(1)
+    hashes = {}
+    for name in args.episodes:
+        try:
+            hashes[name] = episode_hashes(name)
+        except Exception as exc:  # noqa: BLE001 - e.g. the test package is not installed
+            hashes[name] = {"error": f"{type(exc).__name__}: {exc}"}
+        print(name, "done", file=sys.stderr)
+    if args.out:
+        with open(args.out, "w") as fh:
+            json.dump(hashes, fh, indent=1)
+    if args.check:
+        with open(args.check) as fh:
+            before = json.load(fh)
+        diff = [(n, k) for n in hashes for k in set(hashes[n]) | set(before.get(n, {}))
+                if hashes[n].get(k) != before.get(n, {}).get(k)]
+        for n, k in sorted(diff):
+            print(f"differs: {n}.{k}")
+        print("identical" if not diff else f"{len(diff)} field(s) differ")
+        return 1 if diff else 0
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
