@@ -368,8 +368,8 @@ def add_bench_parser(sub) -> None:
                    help="servo only: the working scale of the tracker on the near-goal template (as `run "
                         "--near-goal-scale`)")
     p.add_argument("--safety", choices=("on", "off"), default=None,
-                   help="servo only: the loop's safety rule (hold while it does not see, the workspace envelope; "
-                        "default on; off: an ablation, never a servo to run on a robot)")
+                   help="servo only: the loop's safety rule, the hold while it does not see (default on; off: an "
+                        "ablation, never a servo to run on a robot; the workspace envelope stays on either way)")
     p.add_argument("--goal-frames", type=int, default=None, metavar="N",
                    help=f"servo only: frames averaged into the goal image (as `run --goal-frames`; default {GOAL_FRAMES} with a goal "
                         "template)")

@@ -50,7 +50,8 @@ LOST, FAULT, PREDICTED, UNSURE, OUT_OF_IMAGE, IMPLAUSIBLE, REACQUIRING = (
 
 @dataclass(frozen=True)
 class SafetyConfig:
-    """The safety rule's bounds (LoopConfig.safety). `enabled=False` is the loop without it: for ablations only."""
+    """The safety rule's bounds (LoopConfig.safety). `enabled=False` turns the gate off (the loop servos on whatever
+    it is given), for ablations only; the envelope is never turned off."""
 
     enabled: bool = True
     max_predict_s: float = MAX_PREDICT_S  # a measurement predicted longer than this: hold
