@@ -398,7 +398,7 @@ def _stub_cli():
                            "max_error_px_during_occlusion", "final_pose_error_mm", "final_pose_error_deg",
                            "controlled_dofs", "lost_steps", "predict_steps", "fault_steps", "steps_per_second"), 0)
     brief.update(not_converged_because="image 1.00 px > 0.5 px", faults=[])
-    from hvs_sim.loop import loop_tracker
+    from hvs_sim.servo.plan import loop_tracker
 
     def run_episode(scenario, tracker, *a, tracker_settings=None, **k):  # the checks it makes before any scene
         loop_tracker(tracker, tracker_settings or {})

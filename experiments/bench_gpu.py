@@ -117,9 +117,9 @@ def _():
 
 @part("loop")
 def _():
-    from hvs_sim.loop import LoopConfig
     from hvs_sim.runner import run_episode
     from hvs_sim.scene.scenarios import make_scenario
+    from hvs_sim.servo.config import LoopConfig
     rows = {}
     for device in ("cpu", "cuda"):
         for pipeline in (False, True):

@@ -36,9 +36,9 @@ import torch
 
 from hvs_sim.bench.sequences import make_sequence
 from hvs_sim.bench.track import run_tracker
-from hvs_sim.loop import LoopConfig
 from hvs_sim.runner import run_episode
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+from hvs_sim.servo.config import LoopConfig
 from hvs_sim.tracking import make_tracker
 from hvs_sim.tracking.base import Tracker
 

@@ -18,9 +18,10 @@ import json
 import time
 from pathlib import Path
 
-from hvs_sim.loop import LoopConfig, RunStats
 from hvs_sim.runner import run_episode
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+from hvs_sim.servo.config import LoopConfig
+from hvs_sim.servo.records import RunStats
 
 
 def rss_mb() -> float:

@@ -30,8 +30,9 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
 from hvs_sim.errors import InputError
-from hvs_sim.loop import LoopConfig, ServoLoop
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+from hvs_sim.servo.config import LoopConfig
+from hvs_sim.servo.loop import ServoLoop
 from hvs_sim.tracking import make_tracker
 from hvs_sim.tracking.frames import roi_corners, roi_from_corners
 from hvs_sim.tracking.warp import apply

@@ -9,9 +9,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from hvs_sim.loop import LoopConfig
 from hvs_sim.runner import run_episode
 from hvs_sim.scene.scenarios import make_scenario
+from hvs_sim.servo.config import LoopConfig
 
 
 def main() -> None:

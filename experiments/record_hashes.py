@@ -20,8 +20,9 @@ import sys
 import numpy as np
 import torch
 
-from hvs_sim.loop import LoopConfig, ServoLoop
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+from hvs_sim.servo.config import LoopConfig
+from hvs_sim.servo.loop import ServoLoop
 
 CAM = CameraConfig(width=320, height=240)
 SKIP = {"timings", "wall_ms", "frame"}

@@ -34,12 +34,12 @@ from hvs_sim.bench.servo import episode_scenario
 from hvs_sim.bench.splits import check_tuning_seeds
 from hvs_sim.control.ibvs import interaction_matrix
 from hvs_sim.errors import InputError
-from hvs_sim.loop import GOAL_ROI_INSET_PX
-from hvs_sim.loopparts import GOAL_FRAMES
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import CameraConfig
 from hvs_sim.scene.world import Scene
 from hvs_sim.sensor import sensor_preset
+from hvs_sim.servo.config import GOAL_ROI_INSET_PX
+from hvs_sim.servo.parts import GOAL_FRAMES
 from hvs_sim.tracking import make_tracker
 from hvs_sim.tracking.frames import inset_roi, roi_corners, roi_from_corners
 

@@ -36,11 +36,11 @@ from hvs_sim.bench.budget import WEAK, template_roi, track_still, weak_direction
 from hvs_sim.bench.splits import check_tuning_seeds
 from hvs_sim.errors import InputError
 from hvs_sim.geometry import offset_pose
-from hvs_sim.loopparts import GOAL_FRAMES
 from hvs_sim.outputs import write_atomic
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import SUPERSAMPLE_CHOICES, CameraConfig, make_scenario
 from hvs_sim.scene.world import Scene
+from hvs_sim.servo.parts import GOAL_FRAMES
 from hvs_sim.tracking import aligner, make_tracker
 from hvs_sim.tracking.frames import roi_corners
 

@@ -15,8 +15,8 @@ __version__ = "0.1.0"
 
 # name -> the module that defines it, imported on first use
 _LAZY = {
-    "LoopConfig": "hvs_sim.loop",
-    "ServoLoop": "hvs_sim.loop",
+    "LoopConfig": "hvs_sim.servo.config",
+    "ServoLoop": "hvs_sim.servo.loop",
     "run_episode": "hvs_sim.runner",
     "Scenario": "hvs_sim.scene.scenarios",
     "make_scenario": "hvs_sim.scene.scenarios",

@@ -12,9 +12,11 @@ from pathlib import Path
 import numpy as np
 
 from hvs_sim.errors import ConfigError, OutputError
-from hvs_sim.loop import LoopConfig, RunStats, ServoLoop, StepRecord
 from hvs_sim.outputs import open_output, output_error, settle, temporary_beside, write_atomic
 from hvs_sim.scene.scenarios import Scenario
+from hvs_sim.servo.config import LoopConfig
+from hvs_sim.servo.loop import ServoLoop
+from hvs_sim.servo.records import RunStats, StepRecord
 
 FIGURE_RISING_OCCLUSION = 0.3  # frames.png's second tile: the first step with more of the target hidden
 

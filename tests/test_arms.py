@@ -89,7 +89,9 @@ def test_a_redundant_arm_uses_its_null_space_to_keep_off_its_joint_limits():
 @pytest.mark.parametrize("arm", NEW_ARMS)
 def test_ground_truth_six_dof_ibvs_converges_on_each_arm(arm):
     from hvs_sim.bench.servo import episode_start
-    from hvs_sim.loop import LoopConfig, ServoLoop, summarize_run
+    from hvs_sim.servo.config import LoopConfig
+    from hvs_sim.servo.loop import ServoLoop
+    from hvs_sim.servo.records import summarize_run
 
     scen, _ = episode_start("clear", 200, camera=SMALL, arm=arm)
     config = LoopConfig(steps=300, keep_frames=False)

@@ -14,10 +14,11 @@ import pytest
 
 from hvs_sim.cli import build_parser, main
 from hvs_sim.errors import InputError, StateError
-from hvs_sim.loop import LoopConfig, ServoLoop
 from hvs_sim.manifest import record
 from hvs_sim.outputs import fresh_out_dir
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+from hvs_sim.servo.config import LoopConfig
+from hvs_sim.servo.loop import ServoLoop
 
 
 def _fails(argv, capsys, *words) -> None:
@@ -94,7 +95,7 @@ def test_closed_loop_stops_with_a_clear_error_when_the_tracker_cannot_start(monk
 @pytest.mark.slow
 @pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
 def test_a_signalled_run_stops_cleanly_and_keeps_a_summary_marked_interrupted(tmp_path, sig, code):
-    from hvs_sim.loop import MAX_STEPS  # a run that cannot end before the signal, however loaded the machine
+    from hvs_sim.servo.config import MAX_STEPS  # a run that cannot end before the signal, however loaded the machine
 
     out_json, out_rrd = tmp_path / "run.json", tmp_path / "run.rrd"
     cmd = [sys.executable, "-m", "hvs_sim.cli", "run", "--scenario", "clear", "--steps", str(MAX_STEPS), "--tracker",

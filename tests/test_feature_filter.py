@@ -13,13 +13,15 @@ from hvs_sim.cli import main
 from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA, FeatureFilter
 from hvs_sim.control.ibvs import IBVSConfig, IBVSController
 from hvs_sim.errors import ConfigError
-from hvs_sim.loop import LoopConfig, ServoLoop, summarize_run
-from hvs_sim.loopparts import GOAL_FRAMES
 from hvs_sim.render.camera import CameraPose, intrinsics
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 from hvs_sim.scene.world import Scene
 from hvs_sim.sensor import sensor_preset
+from hvs_sim.servo.config import LoopConfig
+from hvs_sim.servo.loop import ServoLoop
+from hvs_sim.servo.parts import GOAL_FRAMES
+from hvs_sim.servo.records import summarize_run
 
 K = intrinsics(640, 480, 45.0)
 Z_STAR = 0.8

@@ -9,10 +9,12 @@ import pytest
 
 import hvs_sim  # noqa: F401  (registers the environment)
 from hvs_sim.errors import HvsError
-from hvs_sim.loop import LoopConfig, ServoLoop, summarize_run
 from hvs_sim.manifest import MANIFEST_NAME
 from hvs_sim.runner import run_episode
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+from hvs_sim.servo.config import LoopConfig
+from hvs_sim.servo.loop import ServoLoop
+from hvs_sim.servo.records import summarize_run
 
 SMALL = CameraConfig(width=320, height=240)
 

@@ -15,9 +15,11 @@ from hvs_sim.control.ibvs import IBVSConfig, IBVSController
 from hvs_sim.control.pbvs import PBVSController
 from hvs_sim.control.protocol import ControlInput, scale_depths
 from hvs_sim.errors import ConfigError
-from hvs_sim.loop import LoopConfig, ServoLoop, summarize_run
 from hvs_sim.render.camera import intrinsics
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+from hvs_sim.servo.config import LoopConfig
+from hvs_sim.servo.loop import ServoLoop
+from hvs_sim.servo.records import summarize_run
 
 PLUGIN_FILE = Path(__file__).parent / "plugins" / "hvs_test_plugins" / "track.py"
 CAM = CameraConfig(width=320, height=240)
@@ -362,7 +364,7 @@ def test_the_near_goal_template_is_offered_to_an_outside_tracker_that_can_take_i
     near-goal template as the built-ins do; one declaring `near_goal = False` declines it, and the run says why."""
     from hvs_test_plugins.track import KLTHomography
 
-    from hvs_sim.loopparts import NEAR_GOAL_AUTO
+    from hvs_sim.servo.parts import NEAR_GOAL_AUTO
 
     scenario = make_scenario("clear", mount="arm", camera=CAM)
     offered = ServoLoop(scenario, "hvs_test_plugins.track:make", LoopConfig(steps=2))

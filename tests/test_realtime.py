@@ -7,11 +7,13 @@ import numpy as np
 import pytest
 
 from hvs_sim.control.arm import ArmDriver, camera_twist_to_world, twist_to_joint_velocities
-from hvs_sim.loop import LoopConfig, ServoLoop, summarize_run
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.runner import run_episode
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 from hvs_sim.scene.world import Scene
+from hvs_sim.servo.config import LoopConfig
+from hvs_sim.servo.loop import ServoLoop
+from hvs_sim.servo.records import summarize_run
 
 SMALL = CameraConfig(width=320, height=240)
 
@@ -151,7 +153,7 @@ def test_memory_of_a_run_does_not_grow_with_its_steps(tmp_path, monkeypatch):
     """Python memory (numpy arrays included) in use while a run goes, at step 100 and at step 600: the same,
     within 100 bytes a step (the summary's per-step arrays are sized when the run starts; no records,
     frames or CSV rows are held). Keeping the records, as before, grew ~4 kB a step."""
-    from hvs_sim.loop import RunStats
+    from hvs_sim.servo.records import RunStats
 
     used = {}
     add = RunStats.add
@@ -222,8 +224,8 @@ def test_a_supersampled_pixel_is_the_mean_of_its_samples_and_moves_with_the_scen
     import cv2
 
     from hvs_sim.geometry import offset_pose
-    from hvs_sim.loop import GOAL_ROI_INSET_PX
     from hvs_sim.sensor import decode, encode
+    from hvs_sim.servo.config import GOAL_ROI_INSET_PX
     from hvs_sim.tracking import make_tracker
     from hvs_sim.tracking.frames import inset_roi, roi_corners, roi_from_corners
 

@@ -9,8 +9,8 @@ import rerun as rr
 from rerun.chunk import RrdReader
 
 from hvs_sim.errors import ConfigError
-from hvs_sim.loop import StepRecord
 from hvs_sim.render.camera import CameraPose
+from hvs_sim.servo.records import StepRecord
 from hvs_sim.viz.rerun_log import RerunLogger, recording
 from hvs_sim.viz.rr_stream import FILE_PLOT_FLUSH_STEPS, PLOT_FLUSH_STEPS, ScalarColumns, plot_flush_steps
 

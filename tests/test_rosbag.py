@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from hvs_sim.loop import LoopConfig
 from hvs_sim.runner import run_episode
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+from hvs_sim.servo.config import LoopConfig
 from hvs_sim.viz.rosbag import TOPICS
 
 SMALL = CameraConfig(width=160, height=120)

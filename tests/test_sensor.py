@@ -311,8 +311,8 @@ def test_a_reset_scene_starts_a_new_capture():
 @pytest.mark.parametrize(("camera", "tracker"), [("webcam", "ground_truth"), ("phone_handheld", "deep_lk")])
 def test_closed_loop_converges_with_a_real_camera(camera, tracker):
     """Desired and true features go through the same lens model, so servoing still ends on s*."""
-    from hvs_sim.loop import LoopConfig
     from hvs_sim.runner import run_episode
+    from hvs_sim.servo.config import LoopConfig
 
     sc = make_scenario("clear", mount="arm", camera=CameraConfig(width=320, height=240, sensor=camera))
     summary, _ = run_episode(sc, tracker, LoopConfig(steps=110, keep_frames=False), progress=False)

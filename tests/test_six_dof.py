@@ -13,9 +13,11 @@ from hvs_sim.control.ibvs import DOF_NAMES, SIMILARITY_DOFS, IBVSConfig, IBVSCon
 from hvs_sim.control.pbvs import PBVSController
 from hvs_sim.errors import ConfigError
 from hvs_sim.geometry import offset_pose
-from hvs_sim.loop import LoopConfig, ServoLoop, summarize_run
 from hvs_sim.render.camera import intrinsics
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+from hvs_sim.servo.config import LoopConfig
+from hvs_sim.servo.loop import ServoLoop
+from hvs_sim.servo.records import summarize_run
 from hvs_sim.tracking import make_tracker
 from hvs_sim.tracking.feature_lk import sample_points
 from hvs_sim.tracking.frames import roi_corners, roi_from_corners

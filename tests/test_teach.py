@@ -13,19 +13,14 @@ from sklearn.datasets import load_sample_image
 from hvs_sim.cli import main
 from hvs_sim.control.ibvs import IBVSConfig
 from hvs_sim.errors import ConfigError, InputError, StateError
-from hvs_sim.loop import (
-    GOAL_FRAMES,
-    GOAL_ROI_INSET_PX,
-    LoopConfig,
-    ServoLoop,
-    box_in_view,
-    near_goal_growth,
-    summarize_run,
-)
-from hvs_sim.loopparts import NEAR_GOAL_AREA, NEAR_GOAL_SCALE
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
 from hvs_sim.scene.world import Scene
+from hvs_sim.servo.config import GOAL_ROI_INSET_PX, LoopConfig
+from hvs_sim.servo.loop import ServoLoop
+from hvs_sim.servo.parts import GOAL_FRAMES, NEAR_GOAL_AREA, NEAR_GOAL_SCALE
+from hvs_sim.servo.records import summarize_run
+from hvs_sim.servo.teach import box_in_view, near_goal_growth
 from hvs_sim.tracking import make_tracker
 from hvs_sim.tracking.frames import inset_roi, roi_corners, roi_from_corners
 from hvs_sim.tracking.warp import apply, perspective_transform

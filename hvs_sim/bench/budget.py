@@ -34,9 +34,10 @@ from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
 from hvs_sim.control.ibvs import interaction_matrix
 from hvs_sim.errors import ConfigError, InputError
 from hvs_sim.geometry import offset_pose
-from hvs_sim.loop import GOAL_ROI_INSET_PX, LoopConfig, box_in_view, near_goal_growth
-from hvs_sim.loopparts import GOAL_FRAMES, NEAR_GOAL_AUTO, NEAR_GOAL_SCALE
 from hvs_sim.sensor import jpeg_variance, output_variance, sensor_preset, steady_gain
+from hvs_sim.servo.config import GOAL_ROI_INSET_PX, LoopConfig
+from hvs_sim.servo.parts import GOAL_FRAMES, NEAR_GOAL_AUTO, NEAR_GOAL_SCALE
+from hvs_sim.servo.teach import box_in_view, near_goal_growth
 from hvs_sim.tracking.frames import inset_roi, roi_corners, roi_from_corners
 from hvs_sim.tracking.warp import perspective_transform
 
@@ -329,9 +330,9 @@ def closed_loop(camera: str, standoff: float, episodes: int, progress=None, seed
     seed0…), each as long as the benchmark's (with LoopConfig.near_goal_inset_px = `near_goal_inset_px`); their
     final pose errors. `progress(k)` after each."""
     from hvs_sim.bench.servo import EXTRA_STEPS, episode_scenario
-    from hvs_sim.loop import LoopConfig
     from hvs_sim.runner import run_episode
     from hvs_sim.scene.scenarios import CameraConfig
+    from hvs_sim.servo.config import LoopConfig
 
     if not isinstance(episodes, int) or episodes < 0:
         raise ConfigError(f"episodes must be a whole number ≥ 0, got {episodes!r}")

@@ -23,11 +23,11 @@ import numpy as np
 from hvs_sim.bench.pool import collect_jobs, config_json, episode_threads
 from hvs_sim.bench.suites import TILT_MAX_DEG
 from hvs_sim.errors import ConfigError, choice_error
-from hvs_sim.loop import LoopConfig
-from hvs_sim.loopparts import NEAR_GOAL_AUTO, NEAR_GOAL_SCALE
 from hvs_sim.outputs import write_atomic
 from hvs_sim.provenance import code_provenance
 from hvs_sim.sensor import REALISTIC_PRESET
+from hvs_sim.servo.config import LoopConfig
+from hvs_sim.servo.parts import NEAR_GOAL_AUTO, NEAR_GOAL_SCALE
 from hvs_sim.validate import check_number
 
 SERVO_METHODS = ("ground_truth", "ground_truth/pbvs", "hybrid:homography", "hybrid:homography/pbvs", "hybrid")
@@ -89,7 +89,7 @@ class ServoBenchConfig:
             for v in values:
                 if v not in accepted:
                     raise choice_error(what, v, accepted)
-        from hvs_sim.loop import check_combination
+        from hvs_sim.servo.plan import check_combination
 
         for m in self.trackers:  # what a worker would refuse is refused here, before any episode runs
             tracker, warp, controller, policy = parse_method(m)
@@ -233,7 +233,7 @@ def has_goal_template(tracker: str, warp: str | None, template_from: str | None)
     """Whether a servo method's episodes track a template cut from the goal image (LoopConfig.template_from as the
     loop resolves it for the method's tracker and warp)."""
     from hvs_sim import plugins
-    from hvs_sim.loop import template_view
+    from hvs_sim.servo.plan import template_view
 
     tracked = tracker not in (plugins.GROUND_TRUTH, plugins.NO_TRACKER)
     return tracked and template_view(template_from, warp == "homography") == "goal"
@@ -262,8 +262,8 @@ def episode_scenario(scen_name: str, seed: int, tilt: float = TILT_MAX, **overri
 def episode_start(scen_name: str, seed: int, tilt: float = TILT_MAX, **overrides):
     """(episode_scenario, the draws it took): draws before the last are start poses the arm could not reach or
     from which the target was not in view, which the benchmark counts per arm."""
-    from hvs_sim.loop import check_start_pose
     from hvs_sim.scene.scenarios import make_scenario
+    from hvs_sim.servo.teach import check_start_pose
 
     last = None
     base = make_scenario(scen_name, mount="arm", seed=seed, **overrides)

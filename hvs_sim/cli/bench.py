@@ -318,9 +318,9 @@ def _cmd_bench_sim(args) -> int:
 def add_bench_parser(sub) -> None:
     from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
     from hvs_sim.control.ibvs import TRACKED_6DOF_DAMPING
-    from hvs_sim.loopparts import GOAL_FRAMES, TEMPLATE_VIEWS
     from hvs_sim.scene.scenarios import PEOPLE_STYLES
     from hvs_sim.sensor import REALISTIC_PRESET, SENSOR_NAMES
+    from hvs_sim.servo.parts import GOAL_FRAMES, TEMPLATE_VIEWS
 
     p = sub.add_parser("bench", formatter_class=HelpFormatter, help="benchmarks: tracking accuracy (track) or closed-loop convergence (servo)")
     p.add_argument("what", choices=("track", "servo", "suites", "compare"),

@@ -16,8 +16,8 @@ from hvs_sim.outputs import check_output_file, prepare_out_dir
 
 
 def cmd_run(args) -> int:
-    from hvs_sim.loop import LoopConfig
     from hvs_sim.runner import run_episode
+    from hvs_sim.servo.config import LoopConfig
 
     if args.steps < 1:
         raise ConfigError(f"--steps must be >= 1, got {args.steps}")
@@ -145,7 +145,7 @@ def add_run_parser(sub) -> None:
     _add_scene_args(p, mount=False)
     from hvs_sim.tracking import TRACKER_NAMES
 
-    loop_trackers = ("ground_truth", "none", *TRACKER_NAMES)  # hvs_sim.loop.LOOP_TRACKERS, without importing MuJoCo
+    loop_trackers = ("ground_truth", "none", *TRACKER_NAMES)  # hvs_sim.servo.config.LOOP_TRACKERS, without importing MuJoCo
     p.add_argument("--tracker", default=None, metavar="NAME",
                    help=f"one of: {', '.join(loop_trackers)}, or an outside tracker: a registered or entry-point name, "
                         f"package.module:callable or path/to/file.py:callable (default {DEFAULT_TRACKER}; none with "
@@ -154,7 +154,7 @@ def add_run_parser(sub) -> None:
     p.add_argument("--steps", type=int, default=240, help="control steps at 30 Hz")
     from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
     from hvs_sim.control.ibvs import CONTROLLERS
-    from hvs_sim.loopparts import GOAL_FRAMES, NEAR_GOAL_PX, TEMPLATE_VIEWS
+    from hvs_sim.servo.parts import GOAL_FRAMES, NEAR_GOAL_PX, TEMPLATE_VIEWS
     from hvs_sim.tracking.warp import WARPS
 
     p.add_argument("--warp", default=None, choices=WARPS,

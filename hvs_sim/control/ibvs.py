@@ -25,7 +25,7 @@ RANK_TOL = 1e-6  # singular values below this × the largest count as zero (rank
 CONTROLLERS = ("ibvs", "pbvs", "dvs")  # the built-in laws (dvs: photometric, control/dvs.py)
 # tracked corners' noise through L⁺ (cond ~540 at the goal) makes velocities the arm cannot follow: undamped the
 # 6-DOF servo benchmark ended 10-17 px off. 0.005 held it but closed L's weak direction in ~4 s; with the averaged
-# goal image and the feature filter (loop.py) 0.002 closes it ~2.5× faster (tuned on episodes 300-305; README)
+# goal image and the feature filter (servo/loop.py) 0.002 closes it ~2.5× faster (tuned on episodes 300-305; README)
 TRACKED_6DOF_DAMPING = 0.002
 
 

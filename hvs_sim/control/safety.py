@@ -7,8 +7,9 @@ twist the law or policy returns):
   a prediction that has lasted longer than `max_predict_s`, a confidence under `min_confidence` (an outside tracker
   that declares none counts as sure, and is judged by the other checks), features that leave the image, a quad
   whose area is implausible against s*'s (`max_area_ratio`) or that jumped further than the camera's own motion
-  explains (`max_jump_px`). While it does not see, the commanded twist ramps down to zero within `decay_s` along
-  the last twist it trusted (a controlled stop, as an industrial arm's stop category 2), and the camera holds while
+  explains (`max_jump_px`). A prediction is servoed on at a speed that falls linearly to zero at `max_predict_s`,
+  so the camera moves little on a guess. While it does not see, the commanded twist ramps down to zero within
+  `decay_s` along the last twist it trusted (a controlled stop, as an industrial arm's stop category 2), and the camera holds while
   the tracker keeps searching. Servoing resumes once `resume_frames` consecutive aligned measurements agree within
   `resume_px` of each other with the camera held: a target found again stays where it was found.
 - `Envelope` is the workspace: the camera stays within `envelope_margin_m` of the larger of its start's distance to
@@ -156,6 +157,8 @@ class SafetyGate:
         step = self.dt / c.decay_s if c.decay_s > 0 else 1.0
         if self.closed_because is None:
             self.factor = min(1.0, self.factor + step)
+            if mode == "predict" and c.enabled:  # a guess is servoed on ever more slowly, to a stop at max_predict_s
+                self.factor = min(self.factor, max(0.0, 1.0 - self.predict_run * self.dt / c.max_predict_s))
         else:  # a fault stops at once: there is no law's answer at all
             self.factor = 0.0 if self.closed_because == FAULT else max(0.0, self.factor - step)
         return self.closed_because

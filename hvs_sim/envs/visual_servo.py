@@ -227,7 +227,7 @@ class VisualServoEnv(gym.Env):
 
         base = self._episode_scenario(options)
         rng = self.np_random
-        from hvs_sim.loop import check_start_in_view
+        from hvs_sim.servo.teach import check_start_in_view
 
         given = options is not None and "start_offset" in options
         for draw in range(1 if given else START_DRAWS):

@@ -23,7 +23,7 @@ TIMING_METRICS = ("median_ms", "p95_ms", "steps_per_second", "task_seconds")
 def _loop_fields() -> dict[str, str]:
     """Servo settings a sweep may vary: IBVSConfig fields ("ibvs-field") and LoopConfig fields ("loop-field")."""
     from hvs_sim.control.ibvs import IBVSConfig
-    from hvs_sim.loop import LoopConfig
+    from hvs_sim.servo.config import LoopConfig
 
     ibvs = {f.name: "ibvs-field" for f in dataclasses.fields(IBVSConfig)}
     loop = {f.name: "loop-field" for f in dataclasses.fields(LoopConfig) if f.name not in ("ibvs", "steps", "keep_frames")}
@@ -40,8 +40,8 @@ def _common_keys() -> dict[str, object]:
 
 def accepted_keys(kind: str) -> dict[str, object]:
     """Every key a spec of this kind may name in [axes] or [fixed], with what it accepts."""
-    from hvs_sim.loop import LOOP_TRACKERS
     from hvs_sim.scene.scenarios import MOUNTS
+    from hvs_sim.servo.config import LOOP_TRACKERS
     from hvs_sim.tracking import TRACKER_NAMES
 
     keys = _common_keys()
@@ -85,7 +85,7 @@ def _check_value(kind: str, key: str, value, accepted) -> None:
         check_number(key, value, 64, 4096, integer=True)
     elif accepted in ("ibvs-field", "loop-field"):
         from hvs_sim.control.ibvs import IBVSConfig
-        from hvs_sim.loop import LoopConfig
+        from hvs_sim.servo.config import LoopConfig
 
         try:
             (IBVSConfig if accepted == "ibvs-field" else LoopConfig)(**{key: tuple(value) if isinstance(value, list) else value})

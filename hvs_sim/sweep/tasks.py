@@ -42,7 +42,7 @@ def _track_task(params: dict) -> dict:
 def _loop_config(params: dict):
     """The LoopConfig a servo task's parameters make (steps left to the task)."""
     from hvs_sim.control.ibvs import IBVSConfig
-    from hvs_sim.loop import LoopConfig
+    from hvs_sim.servo.config import LoopConfig
 
     fields = _loop_fields()
     ibvs = IBVSConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in params.items()
@@ -57,7 +57,7 @@ def check_grid(spec: SweepSpec) -> None:
     cell, instead of failing as a task."""
     if spec.kind != "servo":
         return
-    from hvs_sim.loop import check_combination
+    from hvs_sim.servo.plan import check_combination
 
     seen = set()
     for params in spec.tasks():

@@ -30,8 +30,8 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from hvs_sim.loop import MODES, StepRecord
 from hvs_sim.sensor import encode_jpeg
+from hvs_sim.servo.records import MODES, StepRecord
 from hvs_sim.viz.rr_stream import JPEG_QUALITY, PLOT_FLUSH_STEPS, RowColumns, ScalarColumns, new_recording
 
 log = logging.getLogger(__name__)

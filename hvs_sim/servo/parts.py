@@ -1,5 +1,5 @@
-"""The closed loop's small parts, apart so that loop.py reads as the loop: the settings it resolves, what one step
-carries between its phases, and the stopwatch of its timings. hvs_sim.loop imports this module, never the reverse."""
+"""The closed loop's small parts, apart so that servo/loop.py reads as the loop: the settings it resolves, what one step
+carries between its phases, and the stopwatch of its timings. hvs_sim.servo.loop imports this module, never the reverse."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The closed loop: render → track → control → step physics, one record per step.
+"""The closed loop: render → track → control → step physics, one record per step (servo/records.py).
 
 Logging and plots only read the records. A tracker exception or non-finite output stops the arm
 for that step (zero twist) and is written into the record; the loop goes on.
@@ -9,347 +9,61 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass, field
 
 import numpy as np
 import torch
 
 from hvs_sim import plugins
 from hvs_sim.control.arm import ArmDriver, JointCommand
-from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA, FeatureFilter
+from hvs_sim.control.feature_filter import FeatureFilter
 from hvs_sim.control.ibvs import (
     CONTROLLERS,
     DOF_NAMES,
-    TRACKED_6DOF_DAMPING,
     ControlOutput,
-    IBVSConfig,
     IBVSController,
     bound_twist,
-    condition_number,
-    dofs_for,
-    matrix_rank,
 )
 from hvs_sim.control.pbvs import PBVSController
 from hvs_sim.control.protocol import ControlInput, PolicyInput, scale_depths
-from hvs_sim.control.safety import Envelope, SafetyConfig, SafetyGate
-from hvs_sim.errors import ConfigError, HvsError, InputError, StateError, choice_error
-from hvs_sim.loopparts import (
-    GOAL_FRAMES,
-    NEAR_GOAL_AREA,
+from hvs_sim.control.safety import Envelope, SafetyGate
+from hvs_sim.errors import ConfigError, HvsError, InputError, StateError
+from hvs_sim.render.camera import CameraPose
+from hvs_sim.render.renderer import Renderer
+from hvs_sim.scene.scenarios import Scenario
+from hvs_sim.scene.world import Scene
+from hvs_sim.sensor import distort_points, undistort_points
+from hvs_sim.servo.config import IN_VIEW_MARGIN_PX, LoopConfig
+from hvs_sim.servo.parts import (
     NEAR_GOAL_AUTO,
-    NEAR_GOAL_MIN_GROWTH_PX,
-    NEAR_GOAL_OFF,
-    NEAR_GOAL_PX,
-    NEAR_GOAL_SCALE,
-    TEMPLATE_VIEWS,
     Capture,
     Episode,
     Measured,
-    ResolvedLoop,
     Stopwatch,
     Template,
     frozen,
     lap,
 )
-from hvs_sim.render.camera import CameraPose
-from hvs_sim.render.renderer import MAX_STILL_FRAMES, Renderer
-from hvs_sim.runstats import MODES, RunStats, summarize_run  # noqa: F401  (re-exported: the loop's summary)
-from hvs_sim.scene.scenarios import Scenario
-from hvs_sim.scene.world import Scene
-from hvs_sim.sensor import distort_points, undistort_points
-from hvs_sim.tracking import TRACKER_NAMES, Track, Tracker, make_tracker
-from hvs_sim.tracking.frames import MIN_ROI, inset_roi, roi_corners, roi_from_corners
+from hvs_sim.servo.plan import check_combination, loop_tracker, resolve, working_scale
+from hvs_sim.servo.records import StepRecord
+from hvs_sim.servo.teach import (
+    box_in_view,
+    check_start_in_view,
+    corners_in_view,
+    default_inset,
+    goal_image,
+    near_goal_growth,
+)
+from hvs_sim.tracking import Track, make_tracker
+from hvs_sim.tracking.frames import inset_roi, roi_corners, roi_from_corners
 from hvs_sim.tracking.warp import apply as apply_warp
 from hvs_sim.tracking.warp import perspective_transform
-from hvs_sim.validate import check_flags, check_number
-
-LOOP_TRACKERS = (plugins.GROUND_TRUTH, plugins.NO_TRACKER) + TRACKER_NAMES  # the built-ins; plugins beside them
-MAX_STEPS = 100_000
-IN_VIEW_MARGIN_PX = 2.0  # the target's corners must be this far inside the image at the start
-# pose bound for `converged`: a 15 cm target at 0.8 m pins lateral translation and pitch/yaw only
-# weakly (a 1° tilt traded against 14 mm of sideways shift moves its corners by ~0.1 px), so the
-# bound is stated beside the 0.5 px image threshold rather than derived from it
-CONVERGE_MM, CONVERGE_DEG = 10.0, 1.0
-GOAL_ROI_INSET_PX = 8  # LoopConfig.roi_inset_px's default with a goal template (6-DOF servo benchmark, README)
-MAX_TEMPLATE_GROWTH_PX = 400  # the most a negative roi_inset_px may grow the goal template (it must fit the image)
-
-
-@dataclass(frozen=True)
-class LoopConfig:
-    steps: int = 300
-    converge_px: float = 0.5  # mean corner error to s* that counts as converged ...
-    hold_steps: int = 10  # ... when held this many consecutive steps
-    ibvs: IBVSConfig = field(default_factory=IBVSConfig)
-    keep_frames: bool = True  # put the rendered frame in each record (for logging)
-    # the evaluation renders (the true occlusion, one segmentation render a step). Off: no render but the
-    # camera's; records keep the geometric truth (corner and pose errors, no rendering) and occlusion NaN.
-    # Control never reads either: features from the tracker, camera pose from the joints, depth from the
-    # tracked scale (IBVSConfig.depth="true" asks the simulator)
-    evaluate: bool = True
-    # the servo law: "ibvs" (v = −λ L⁺ e), "pbvs" (pbvs.py), "dvs" (photometric, dvs.py; no tracker), all with `ibvs`'s
-    # gains, or an outside law (hvs_sim.plugins: a registered name, an entry point, module:callable)
-    controller: str = "ibvs"
-    # an outside policy (image + joints → camera twist, hvs_sim.plugins) in place of tracker and law (tracker "none")
-    policy: str | None = None
-    # and the pose must be within these of the reference pose, in the DOFs controlled (ground truth)
-    converge_mm: float = CONVERGE_MM
-    converge_deg: float = CONVERGE_DEG
-    # TEMPLATE_VIEWS, or None: "goal" for a tracker on six DOF, else "start". "goal" is teach-by-showing: the
-    # template is cut from the goal image (the arm at the reference pose, the people left out, this run's
-    # camera model) and the tracker is seeded at the target's corners in the first frame; the features are
-    # then most exact where it matters, at the goal. From the tilted start view the template's corners kept a
-    # 0.2–0.3 px bias at the goal, which L's weak direction turns into 4–5° (README, 6-DOF servo benchmark)
-    template_from: str | None = None
-    # the template is cut this many pixels inside the target's outline, whose rendering (aliased edge, the
-    # flag's side faces and its 4 mm relief above the board) changes from view to view: with the goal template,
-    # tracked corners 0.3–0.5 px off near the goal without an inset, 0.02–0.05 px with 8 px. None:
-    # GOAL_ROI_INSET_PX with a goal template (less where the box would fall under MIN_ROI), 0 with a start one.
-    # Negative (a goal template only): the box grows that many pixels beyond the outline, into the target's
-    # surroundings, which must lie in its plane (the wall's other pictures do; the board behind them sits 4 mm back).
-    # The wider template pins the pose's weak directions (figures: docs/tuning.md, roi_inset_px)
-    roi_inset_px: int | None = None
-    # a second, grown goal template (a negative inset, as roi_inset_px) the loop switches to once the tracked corners
-    # are within near_goal_px of s* and the grown box is in view: the small template brings the camera near from
-    # afar (the grown box may lie out of a tilted start view, where its first alignment fails), the grown one pins
-    # the pose's weak directions at the goal. The tracker is re-seeded on it through the corners' homography, and s*,
-    # the law and the feature filter start again on its corners. NEAR_GOAL_AUTO (the default): the box grown to
-    # NEAR_GOAL_AREA of the goal image (near_goal_growth), where the loop has a tracker on a goal template and the box
-    # can grow NEAR_GOAL_MIN_GROWTH_PX; otherwise one template, and run.json says why. None: one template throughout.
-    # A number is that growth, and a run it cannot apply to is refused
-    near_goal_inset_px: int | str | None = NEAR_GOAL_AUTO
-    near_goal_px: float | None = None  # None: NEAR_GOAL_PX (a number with near_goal_inset_px None is refused)
-    # the working scale (DeepLKConfig.scale) of the tracker on the near-goal template: a built-in tracker is built a
-    # second time at this scale for it, as its VGG features cost what the template's area does (the intensity
-    # refinement stays at full resolution). None: NEAR_GOAL_SCALE for a built-in tracker, an outside one's own
-    near_goal_scale: float | None = None
-    # frames of the still scene averaged into the goal image (Renderer.still_average; 1 = one frame). None:
-    # GOAL_FRAMES with a goal template; a number with a start template is refused (it would do nothing)
-    goal_frames: int | None = None
-    # α of the feature filter (control/feature_filter.py): the tracked corners blended with where the camera's
-    # own motion (forward kinematics) carries the last estimate; 0 = off. None: FEATURE_FILTER_ALPHA for tracked
-    # corners on six DOF, off otherwise (exact features need none; the 4-DOF path is the paper's)
-    feature_filter: float | None = None
-    # track frame k in a second thread while the physics steps and frame k + 1 renders (ServoLoop.run): the step
-    # costs about the longer of the two instead of their sum, and frame k's command acts one frame later
-    pipeline: bool = False
-    # the safety rule (control/safety.py): the twist ramps to zero while the loop does not see the target (lost, a
-    # long prediction, features implausible or out of the image) and servoing resumes on a verified alignment; a
-    # command that would leave the workspace envelope ends the episode as aborted. For every tracker and law
-    safety: SafetyConfig = field(default_factory=SafetyConfig)
-
-    def __post_init__(self):
-        if self.controller not in CONTROLLERS:
-            plugins.check("controller", self.controller)
-        if self.policy is not None:
-            plugins.check("policy", self.policy)
-        if self.template_from is not None and self.template_from not in TEMPLATE_VIEWS:
-            raise choice_error("template_from", self.template_from, TEMPLATE_VIEWS)
-        if self.roi_inset_px is not None:
-            check_number("roi_inset_px", self.roi_inset_px, -MAX_TEMPLATE_GROWTH_PX, integer=True)
-        if self.near_goal_inset_px == NEAR_GOAL_OFF:
-            object.__setattr__(self, "near_goal_inset_px", None)
-        if self.near_goal_inset_px is not None and self.near_goal_inset_px != NEAR_GOAL_AUTO:
-            if isinstance(self.near_goal_inset_px, str):
-                raise ConfigError(f"near_goal_inset_px must be {NEAR_GOAL_AUTO!r}, {NEAR_GOAL_OFF!r} or None (one "
-                                  f"template), or a negative whole number of px, got {self.near_goal_inset_px!r}")
-            check_number("near_goal_inset_px", self.near_goal_inset_px, -MAX_TEMPLATE_GROWTH_PX, -1, integer=True)
-            if self.roi_inset_px is not None and self.roi_inset_px < 0:
-                raise ConfigError(f"near_goal_inset_px ({self.near_goal_inset_px}) switches to a grown template near "
-                                  f"the goal, but roi_inset_px ({self.roi_inset_px}) grows the first one already: give "
-                                  "one of them (or an roi_inset_px ≥ 0)")
-        if self.near_goal_scale is not None:
-            check_number("near_goal_scale", self.near_goal_scale, 0, 1, lo_open=True)
-        if self.near_goal_px is not None:
-            check_number("near_goal_px", self.near_goal_px, 0, lo_open=True)
-        for name, value in (("near_goal_scale", self.near_goal_scale), ("near_goal_px", self.near_goal_px)):
-            if value is not None and self.near_goal_inset_px is None:
-                raise ConfigError(f"{name} ({value}) sets the near-goal template, which near_goal_inset_px=None turns "
-                                  f"off: leave near_goal_inset_px at {NEAR_GOAL_AUTO!r} (or give a growth), or leave "
-                                  f"{name} out")
-        if self.feature_filter is not None:
-            check_number("feature_filter (alpha)", self.feature_filter, 0, 1)
-        if self.goal_frames is not None:
-            check_number("goal_frames", self.goal_frames, 1, MAX_STILL_FRAMES, integer=True)
-            if self.template_from == "start":
-                raise ConfigError(f"goal_frames ({self.goal_frames}) averages frames into a goal image, but "
-                                  "template_from='start' takes the template from the first frame: give one of them")
-        if self.policy is not None and self.controller != "ibvs":
-            raise ConfigError(f"a policy ({self.policy!r}) replaces the servo law: leave controller "
-                              f"({self.controller!r}) at its default")
-        if not (self.converge_mm > 0 and self.converge_deg > 0):
-            raise ConfigError(f"converge_mm and converge_deg must be > 0, got {self.converge_mm}, {self.converge_deg}")
-        if isinstance(self.steps, bool) or not isinstance(self.steps, (int, np.integer)) or not 1 <= self.steps <= MAX_STEPS:
-            raise ConfigError(f"steps must be an int in [1, {MAX_STEPS}], got {self.steps!r}")
-        check_number("converge_px", self.converge_px, 0, lo_open=True)
-        check_number("hold_steps", self.hold_steps, 1, integer=True)
-        check_number("converge_mm", self.converge_mm, 0, lo_open=True)
-        check_number("converge_deg", self.converge_deg, 0, lo_open=True)
-        check_flags(self, ("keep_frames", "evaluate", "pipeline"))
-        if not isinstance(self.safety, SafetyConfig):
-            raise ConfigError(f"safety must be a SafetyConfig (hvs_sim.control.safety), got {type(self.safety).__name__}")
-
-    @property
-    def near_goal_within_px(self) -> float:
-        """near_goal_px resolved: NEAR_GOAL_PX where it is not given."""
-        return NEAR_GOAL_PX if self.near_goal_px is None else float(self.near_goal_px)
-
-
-@dataclass
-class StepRecord:
-    step: int
-    time: float
-    frame: np.ndarray | None
-    track: Track | None
-    mode: str  # tracker mode ("align" | "predict" | "lost"), or "fault"
-    features: np.ndarray  # (4, 2) corners the controller used
-    gt_features: np.ndarray  # (4, 2) where those corners truly are
-    desired: np.ndarray  # (4, 2) s*
-    error_px: float  # ground-truth mean corner error to s*
-    tracker_error_px: float  # mean distance between tracked and true corners
-    occlusion: float  # true occlusion fraction
-    twist: np.ndarray  # (6,) camera frame
-    qdot: np.ndarray
-    q: np.ndarray
-    camera: CameraPose
-    gain: float
-    saturated: bool
-    limit_blocked: tuple[int, ...]
-    fault: str | None
-    timings: dict[str, float]  # ms per stage
-    # the camera's pose error to the reference pose (Scene.pose_error: x, y, z mm; about x, y, z deg), truth
-    pose_error: np.ndarray = field(default_factory=lambda: np.zeros(6))
-    singular_values: np.ndarray = field(default_factory=lambda: np.zeros(0))  # of the controlled columns of L
-    dofs: tuple[str, ...] = DOF_NAMES  # the DOFs the controller commands
-    target_in_view: bool = True  # all four true target corners inside the image
-    damping: float = 0.0  # the IBVS damping the loop used (IBVSConfig.damping, resolved)
-    feature_filter: float = 0.0  # the feature filter's α the loop used (LoopConfig.feature_filter, resolved; 0 = off)
-    filter_restarted: bool = False  # the feature filter restarted at this measurement (FeatureFilter.gate_px)
-    # where the template came from, its inset and the frames averaged into a goal image (LoopConfig, resolved)
-    template: tuple[str, int, int | None] = ("start", 0, None)
-    # wall ms of the step when its stages overlap (LoopConfig.pipeline): from the end of the step before (so the
-    # consumer's time, e.g. logging, counts in the next step) to this record; a pipelined step's render,
-    # ground_truth and physics are those of the next frame, made while this one was tracked (0 on the last step).
-    # None: the stages ran one after another and their sum is the step's time
-    wall_ms: float | None = None
-    controlled_pose_error: tuple[float, float] = (0.0, 0.0)  # (mm, deg) of pose_error in those DOFs
-    people: list = field(default_factory=list)  # (feet position, orientation) of each person
-    # the safety rule (LoopConfig.safety): why it held the arm this step (None: the law's twist was followed), and
-    # why the episode ended here, when the next command would have left the workspace envelope
-    held_because: str | None = None
-    aborted: str | None = None
-    arm: tuple | None = None  # (positions (k, 3), orientations (k, 3, 3)) of the arm's meshes (Scene.arm_meshes)
-
-    @property
-    def condition(self) -> float | None:
-        """Condition number of the controlled columns of L (None: no control this step, or rank-deficient)."""
-        return condition_number(self.singular_values)
-
-    @property
-    def rank(self) -> int | None:
-        return matrix_rank(self.singular_values)
-
-
-def corners_in_view(px: np.ndarray, camera, margin: float = 0.0) -> bool:
-    """Whether all points (pixels) are finite and at least `margin` inside a camera's image."""
-    hi = np.array([camera.width - 1, camera.height - 1]) - margin
-    return bool(np.all(np.isfinite(px)) and np.all((px >= margin) & (px <= hi)))
-
-
-def box_in_view(roi, camera) -> bool:
-    """Whether a template box lies as far inside a camera's image as the switch to a grown template asks of its
-    corners in the frame (ServoLoop._near_goal_due: IN_VIEW_MARGIN_PX), so that a run given it can switch."""
-    return corners_in_view(roi_corners(roi), camera, IN_VIEW_MARGIN_PX)
-
-
-def near_goal_growth(outline, camera) -> tuple[int | None, str | None]:
-    """The automatic near-goal template (LoopConfig.near_goal_inset_px = NEAR_GOAL_AUTO): the growth (px, negative
-    as an inset) that takes the target's outline box in the goal image to NEAR_GOAL_AREA of the image, alike on every
-    side, or less where the box would run out of the image (box_in_view). (None, why) where that is under
-    NEAR_GOAL_MIN_GROWTH_PX: the one template is then nearly all there is to take."""
-    x, y, w, h = (int(v) for v in outline)
-    share = w * h / (camera.width * camera.height)
-    # (w + 2g)(h + 2g) = NEAR_GOAL_AREA · W · H, the positive root; no more than a growth given may be
-    g = int(np.floor((-(w + h) + np.sqrt((w + h) ** 2 + 4 * (NEAR_GOAL_AREA * camera.width * camera.height - w * h)))
-                     / 4)) if share < NEAR_GOAL_AREA else 0
-    g = min(g, MAX_TEMPLATE_GROWTH_PX)
-    if g < NEAR_GOAL_MIN_GROWTH_PX:
-        return None, (f"the target's box already holds {share:.0%} of the goal image (the near-goal template grows it "
-                      f"to {NEAR_GOAL_AREA:.0%})")
-    while g >= NEAR_GOAL_MIN_GROWTH_PX and not box_in_view(inset_roi((x, y, w, h), -g), camera):
-        g -= 1
-    if g < NEAR_GOAL_MIN_GROWTH_PX:
-        return None, (f"the target's box lies within {NEAR_GOAL_MIN_GROWTH_PX} px of the goal image's edge: no room "
-                      "to grow the near-goal template")
-    return -g, None
-
-
-def check_start_in_view(scene: Scene, renderer: Renderer) -> None:
-    """ConfigError unless all four target corners are inside the image from the scenario's start pose."""
-    start_pos, start_R = scene.start_pose()
-    px = renderer.project(CameraPose(start_R, start_pos), scene.target_corners_world())
-    cam = scene.scenario.camera
-    if not corners_in_view(px, cam, IN_VIEW_MARGIN_PX):
-        raise ConfigError(f"from the start offset {scene.scenario.start_offset_text} the target is not fully in view "
-                          f"(its corners at {np.round(px, 1).tolist()} px in a {cam.width}×{cam.height} image): "
-                          "give a smaller offset")
-
-
-def check_start_pose(scenario: Scenario) -> None:
-    """ConfigError when the arm cannot reach the scenario's start pose or the target is not fully in view
-    from it (builds the scene, renders nothing)."""
-    scene = Scene(scenario)
-    check_start_in_view(scene, Renderer(scene))
-
-
-def check_combination(tracker: str, config: LoopConfig, image_law: bool | None = None) -> None:
-    """The rules between the tracker's name and the loop's settings (ServoLoop applies them, and a sweep checks its
-    whole grid with them before it runs). `image_law`: whether the law reads only the images; None: what the settings
-    say without building the law (dvs does; an outside law is given the benefit of the doubt)."""
-    unknown = image_law is None and config.controller not in CONTROLLERS  # an outside law not built: either may hold
-    if image_law is None:
-        image_law = config.controller == "dvs"
-    if config.policy is not None and tracker != plugins.NO_TRACKER:
-        raise ConfigError(f"a policy ({config.policy!r}) replaces tracker and law: give tracker 'none', not "
-                          f"{tracker!r}")
-    if tracker == plugins.NO_TRACKER and config.policy is None and not (image_law or unknown):
-        raise ConfigError(f"tracker 'none' needs a law that reads only the images (dvs, or an outside law with "
-                          f"uses_features = False) or a policy; controller {config.controller!r} needs features")
-    if image_law and tracker != plugins.NO_TRACKER:
-        raise ConfigError(f"controller {config.controller!r} reads the images, not tracked features: give tracker "
-                          f"'none', not {tracker!r}")
-    if tracker == plugins.GROUND_TRUTH:
-        for name, value in (("feature_filter", config.feature_filter), ("goal_frames", config.goal_frames)):
-            if value:
-                raise ConfigError(f"{name} ({value}) applies to a tracker's corners; ground_truth features have "
-                                  f"no noise to filter and no template: leave {name} out")
-
-
-def template_view(template_from: str | None, tracked_6dof: bool) -> str:
-    """LoopConfig.template_from resolved: as given, else "goal" for tracked corners on six DOF, else "start"."""
-    return template_from or ("goal" if tracked_6dof else "start")
-
-
-def working_scale(tracker) -> float | None:
-    """A tracker's working scale (DeepLKConfig.scale), None where it has none (ECC, an outside tracker, no tracker)."""
-    return getattr(getattr(tracker, "config", None), "scale", None)
-
-
-def loop_tracker(tracker: str, settings: dict) -> Tracker | plugins.ExternalTracker | None:
-    """The closed loop's tracker by name or plugin reference with its settings (None: the ground_truth oracle, or
-    no tracker). Built before the scene, so a bad name or setting costs no rendering."""
-    if tracker in (plugins.GROUND_TRUTH, plugins.NO_TRACKER):
-        if settings:
-            raise ConfigError(f"{tracker} takes no tracker settings, got {sorted(settings)}")
-        return None
-    if tracker in TRACKER_NAMES:
-        return make_tracker(tracker, **settings)
-    return plugins.build("tracker", tracker, **settings)
 
 
 class ServoLoop:
     """One closed-loop episode of a scenario with the arm mount and a named tracker."""
 
-    def __init__(self, scenario: Scenario, tracker: str = "deep_lk", config: LoopConfig = LoopConfig(), **tracker_config):
+    def __init__(self, scenario: Scenario, tracker: str = "deep_lk", config: LoopConfig | None = None, **tracker_config):
+        config = LoopConfig() if config is None else config
         if scenario.mount != "arm":
             raise ConfigError(f"the closed loop needs mount='arm', got {scenario.mount!r}")
         # an outside law or policy, built before the scene (and checked with the tracker's name before the tracker)
@@ -360,7 +74,7 @@ class ServoLoop:
         self.tracker = loop_tracker(tracker, tracker_config)
         self.scenario, self.tracker_name, self.config = scenario, tracker, config
         self.oracle = tracker == plugins.GROUND_TRUTH
-        self.resolved = self._resolve(tracker, config)
+        self.resolved = resolve(tracker, config, self.tracker, self.law, self.policy)
         self.near_goal_tracker = None  # the tracker on the near-goal template, when it is another (near_goal_scale)
         if self.resolved.near_goal_scale is not None:
             self.near_goal_tracker = make_tracker(tracker, **{**tracker_config, "scale": self.resolved.near_goal_scale})
@@ -404,93 +118,6 @@ class ServoLoop:
     template_from = property(lambda self: self.resolved.template_from)
     goal_frames = property(lambda self: self.resolved.goal_frames)
 
-    def _resolve(self, tracker: str, config: LoopConfig) -> ResolvedLoop:
-        """LoopConfig's None settings decided once, from the tracker, the law and the DOFs the features observe."""
-        # the DOFs the features observe: ground truth and a homography tracker give perspective corners
-        warp = "homography" if self.tracker is None else self.tracker.warp
-        declared = (self.policy.dofs if self.policy is not None else self.law.dofs if self.law is not None else None)
-        dofs = tuple(config.ibvs.dofs or declared or dofs_for(warp))
-        tracked_6dof = self.tracker is not None and len(dofs) == 6
-        damping = config.ibvs.damping
-        if damping is None:  # exact features need none; tracked ones on six DOF do (IBVSConfig.damping)
-            damping = TRACKED_6DOF_DAMPING if tracked_6dof and config.controller in ("ibvs", "pbvs") else 0.0
-        alpha = config.feature_filter
-        alpha = (FEATURE_FILTER_ALPHA if tracked_6dof else 0.0) if alpha is None else float(alpha)
-        can_seed = getattr(self.tracker, "can_seed", True)  # an outside tracker without seed(A): its first frame
-        template_from = template_view(config.template_from, tracked_6dof and can_seed)
-        if self.tracker is None and not self.oracle:  # a law on the images or a policy: they compare with the goal
-            if config.template_from == "start":
-                raise ConfigError("a photometric law or a policy compares the frames with the goal image: leave "
-                                  "template_from out (or give 'goal')")
-            template_from = "goal"
-        if template_from == "goal" and not can_seed:
-            raise ConfigError(f"tracker {tracker!r} has no seed(A), so it cannot take its template from the goal image "
-                              "and be placed on the first frame: use template_from='start'")
-        if template_from == "start" and config.goal_frames is not None:
-            raise ConfigError(f"goal_frames ({config.goal_frames}) averages frames into a goal image, but this run's "
-                              "template comes from its first frame (template_from='start'): leave goal_frames out, or "
-                              "use template_from='goal'")
-        if template_from == "start":
-            goal_frames = None
-        elif self.oracle:  # the oracle takes only the target's corners from a goal image: one frame
-            goal_frames = 1
-        else:
-            goal_frames = config.goal_frames or GOAL_FRAMES
-        inset = config.roi_inset_px  # default_inset's answer, where it needs no goal image
-        if inset is None and (template_from == "start" or self.oracle):
-            inset = 0
-        if inset is not None and inset < 0 and template_from == "start":
-            raise ConfigError(f"roi_inset_px {inset} grows the template into the target's surroundings, which only a "
-                              "goal template may take in: this run's template comes from its first frame (give "
-                              "template_from='goal', or an inset ≥ 0)")
-        if config.ibvs.depth == "true" and inset is not None and inset < 0:
-            raise ConfigError("depth='true' gives IBVS the depths of the target's own corners; a grown template's "
-                              "corners lie beyond them, in its plane: leave depth at 'scale' (the tracked scale)")
-        near_goal, near_off, near_scale = self._resolve_near_goal(tracker, config, template_from, inset)
-        return ResolvedLoop(warp, dofs, damping, alpha, template_from, goal_frames, inset, near_goal, near_off,
-                            near_scale)
-
-    def _resolve_near_goal(self, tracker: str, config: LoopConfig, template_from: str,
-                           inset: int | None) -> tuple[int | str | None, str | None, float | None]:
-        """(the near-goal template's growth: a number, NEAR_GOAL_AUTO for step 0 to decide, or None; why there is
-        none where NEAR_GOAL_AUTO cannot apply; the working scale a second tracker is built at, None: the loop's
-        own). A number the run cannot apply is refused."""
-        near = config.near_goal_inset_px
-        if near is None:
-            return None, None, None
-        why = None
-        if self.tracker is None:
-            why = f"tracker {tracker!r} has no template"
-        elif template_from != "goal":
-            why = "this run's template comes from its first frame"
-        elif config.ibvs.depth == "true":
-            why = ("depth='true' gives IBVS the depths of the target's own corners, and a grown template's corners lie "
-                   "beyond them")
-        elif inset is not None and inset < 0:
-            why = f"roi_inset_px ({inset}) grows the first template already"
-        elif near == NEAR_GOAL_AUTO and not getattr(self.tracker, "near_goal", True):
-            why = (f"{tracker!r} declines the near-goal template (its `near_goal` is False; give near_goal_inset_px "
-                   "a growth to switch it anyway)")
-        if why is not None:
-            if near != NEAR_GOAL_AUTO:
-                raise ConfigError(f"near_goal_inset_px ({near}) switches a tracker to a template grown in the goal "
-                                  f"image near the goal, but {why}")
-            given = [n for n in ("near_goal_scale", "near_goal_px") if getattr(config, n) is not None]
-            if given:
-                raise ConfigError(f"{given[0]} sets the near-goal template, but this run has none: {why}")
-            return None, why, None
-        scale = config.near_goal_scale
-        # a built-in tracker with a working scale is built again at the near-goal one; any other tracker is its own
-        own = working_scale(self.tracker) if tracker in TRACKER_NAMES else None
-        if own is None:
-            if scale is not None:
-                raise ConfigError(f"near_goal_scale builds a built-in tracker again at another working scale; "
-                                  f"{tracker!r} is not one with a working scale (those of "
-                                  f"{', '.join(TRACKER_NAMES)} that take `scale`): leave near_goal_scale out")
-            return near, None, None
-        scale = NEAR_GOAL_SCALE if scale is None else float(scale)
-        return near, None, (None if abs(own - scale) < 1e-12 else scale)
-
     def controlled_pose_error(self, pose_error: np.ndarray) -> tuple[float, float]:
         """(mm, deg) of the pose error in the DOFs this loop controls."""
         cols = [DOF_NAMES.index(d) for d in self.dofs]
@@ -513,19 +140,11 @@ class ServoLoop:
         return distort_points(self.renderer.K, dist, pts) if dist else pts
 
     def default_inset(self, roi) -> int:
-        """LoopConfig.roi_inset_px=None: GOAL_ROI_INSET_PX for a goal template, less where the box would fall
-        under MIN_ROI (a target small in the image); 0 for a start template, whose box is thin at large rolls."""
-        if self.template_from == "start" or self.oracle:  # the oracle's features need no inset
-            return 0
-        return int(min(GOAL_ROI_INSET_PX, max(0, (min(roi[2], roi[3]) - MIN_ROI) // 2)))
+        return default_inset(roi, self.template_from, self.oracle)
 
     def goal_image(self) -> tuple[np.ndarray, np.ndarray]:
-        """(frame, target corners) of the goal image: the camera at the reference pose at time 0, the people
-        left out (a user teaches the goal in a clear scene), through this run's camera model: the mean of
-        `goal_frames` frames of it."""
-        teacher = Renderer(self.scene, people=False)  # its own sensor state: the episode's frames are unchanged
-        with self.scene.posed(self.scene.reference_configuration()):
-            return teacher.still_average(self.goal_frames), teacher.ground_truth(occlusion=False).corners
+        """The goal image and the target's corners in it (servo/teach.py), with this run's goal frames."""
+        return goal_image(self.scene, self.goal_frames)
 
     def _controller(self, desired_px: np.ndarray, goal: np.ndarray | None, roi):
         """The step-0 law on the desired corners (pinhole pixels): a built-in, or the outside law built at init."""

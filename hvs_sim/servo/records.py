@@ -1,15 +1,19 @@
-"""A run's summary, accumulated step by step (RunStats) without keeping the records: convergence from ground truth,
-occlusion behaviour, stage timings. The loop (loop.py) yields StepRecords; the runner, the benchmarks and the gym env
-feed them here. Its own module so that the loop's module holds the loop; it reads `LoopConfig` and `StepRecord`
-(loop.py) by their fields and does not import them, so the two modules import one way."""
+"""What a run leaves: one StepRecord per step (what the loop did beside the truth it did not see), and the run's
+summary accumulated step by step (RunStats) without keeping the records: convergence from ground truth, occlusion
+behaviour, the safety rule, stage timings. The loop (servo/loop.py) yields the records; the runner, the benchmarks
+and the gym env feed them to RunStats."""
 
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from hvs_sim.control.ibvs import DOF_NAMES, condition_number, matrix_rank
 from hvs_sim.errors import StateError
+from hvs_sim.render.camera import CameraPose
+from hvs_sim.tracking import Track
 
 MODES = ("align", "predict", "lost", "fault")  # a record's mode, in the order its code (index) is plotted and stored
 
@@ -18,6 +22,61 @@ REAPPEAR_OCCLUSION, HIDDEN_OCCLUSION = 0.1, 0.5  # the target "reappears" under 
 REACQUIRED_PX = 2.0  # re-acquired: aligned again with the tracked corners this close to the truth
 # a runaway: the camera ended this much further from the goal than it started (or the envelope stopped it)
 RUNAWAY_MM = 50.0
+
+
+@dataclass
+class StepRecord:
+    step: int
+    time: float
+    frame: np.ndarray | None
+    track: Track | None
+    mode: str  # tracker mode ("align" | "predict" | "lost"), or "fault"
+    features: np.ndarray  # (4, 2) corners the controller used
+    gt_features: np.ndarray  # (4, 2) where those corners truly are
+    desired: np.ndarray  # (4, 2) s*
+    error_px: float  # ground-truth mean corner error to s*
+    tracker_error_px: float  # mean distance between tracked and true corners
+    occlusion: float  # true occlusion fraction
+    twist: np.ndarray  # (6,) camera frame
+    qdot: np.ndarray
+    q: np.ndarray
+    camera: CameraPose
+    gain: float
+    saturated: bool
+    limit_blocked: tuple[int, ...]
+    fault: str | None
+    timings: dict[str, float]  # ms per stage
+    # the camera's pose error to the reference pose (Scene.pose_error: x, y, z mm; about x, y, z deg), truth
+    pose_error: np.ndarray = field(default_factory=lambda: np.zeros(6))
+    singular_values: np.ndarray = field(default_factory=lambda: np.zeros(0))  # of the controlled columns of L
+    dofs: tuple[str, ...] = DOF_NAMES  # the DOFs the controller commands
+    target_in_view: bool = True  # all four true target corners inside the image
+    damping: float = 0.0  # the IBVS damping the loop used (IBVSConfig.damping, resolved)
+    feature_filter: float = 0.0  # the feature filter's α the loop used (LoopConfig.feature_filter, resolved; 0 = off)
+    filter_restarted: bool = False  # the feature filter restarted at this measurement (FeatureFilter.gate_px)
+    # where the template came from, its inset and the frames averaged into a goal image (LoopConfig, resolved)
+    template: tuple[str, int, int | None] = ("start", 0, None)
+    # wall ms of the step when its stages overlap (LoopConfig.pipeline): from the end of the step before (so the
+    # consumer's time, e.g. logging, counts in the next step) to this record; a pipelined step's render,
+    # ground_truth and physics are those of the next frame, made while this one was tracked (0 on the last step).
+    # None: the stages ran one after another and their sum is the step's time
+    wall_ms: float | None = None
+    controlled_pose_error: tuple[float, float] = (0.0, 0.0)  # (mm, deg) of pose_error in those DOFs
+    people: list = field(default_factory=list)  # (feet position, orientation) of each person
+    # the safety rule (LoopConfig.safety): why it held the arm this step (None: the law's twist was followed), and
+    # why the episode ended here, when the next command would have left the workspace envelope
+    held_because: str | None = None
+    aborted: str | None = None
+    arm: tuple | None = None  # (positions (k, 3), orientations (k, 3, 3)) of the arm's meshes (Scene.arm_meshes)
+
+    @property
+    def condition(self) -> float | None:
+        """Condition number of the controlled columns of L (None: no control this step, or rank-deficient)."""
+        return condition_number(self.singular_values)
+
+    @property
+    def rank(self) -> int | None:
+        return matrix_rank(self.singular_values)
 
 
 class RunStats:
