@@ -102,6 +102,14 @@ OCCLUDER_SHARE = 0.1
 OCCLUDER_CLEAR = 0.02
 OCCLUDER_MIN_OTHER = 12
 OCCLUDER_SPREAD = 0.5  # ... spread over half the corners' extent both ways (a strip of wall is not the wall) ...
+# a target the occluder covers (OP_t at the estimate at least COVERED_OP, HybridState.hidden_share): the wall has no
+# corners on its box (the box shrunk by COVERED_SHRINK about its centre, for an estimate a few px off), so a consensus
+# moving COVERED_MIN_POINTS of them is the occluder's however large it is (a coat twice the view's size over the
+# target: 5-9 % of its corners there, under OCCLUDER_SHARE), and the scene's motion is the consensus among the
+# other points, or none
+COVERED_OP = 0.8
+COVERED_SHRINK = 0.8
+COVERED_MIN_POINTS = 3
 OCCLUDER_MISS_PX = 2.0  # ... and moving no more than this further from the scene's expected motion than the first
 # a hop refitted as a homography (BackgroundConfig.homography): on at least this many inliers, spread over at least
 # this share of the view's width and height, and moving the view's centre within HOMOGRAPHY_AGREE_PX of the similarity
@@ -142,7 +150,7 @@ def _ransac(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig) -> tuple[np.n
 
 
 def _consensus(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig, expected: np.ndarray | None = None,
-               hidden: np.ndarray | None = None) -> tuple[np.ndarray | None, np.ndarray]:
+               hidden: np.ndarray | None = None, covered: bool = False) -> tuple[np.ndarray | None, np.ndarray]:
     """RANSAC similarity src → dst (3×3) and its inliers, or None when too few points agree on it.
 
     A second consensus among the first one's outliers competes with it: a textured coat that fills
@@ -156,6 +164,18 @@ def _consensus(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig, expected: 
     S, inl = _ransac(src, dst, c)
     if S is None or int(inl.sum()) < max(c.min_inliers, c.min_inlier_ratio * len(src)):
         return none
+    if covered and hidden is not None:
+        on_box = _near(src, hidden, COVERED_SHRINK)
+        if int((on_box & inl).sum()) >= COVERED_MIN_POINTS:  # the occluder's consensus (COVERED_OP)
+            rest = np.flatnonzero(~inl & ~on_box)
+            if len(rest) < c.min_inliers:
+                return none
+            S2, inl2 = _ransac(src[rest], dst[rest], c)
+            if S2 is None or int(inl2.sum()) < c.min_inliers:
+                return none
+            second = np.zeros(len(src), bool)
+            second[rest[inl2]] = True
+            return S2, second
     if (expected is None and hidden is None) or (~inl).sum() < c.min_inliers:
         return S, inl
     rest = np.flatnonzero(~inl)
@@ -181,10 +201,10 @@ def _consensus(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig, expected: 
     return (S2, second) if miss(S2) < miss(S) else (S, inl)
 
 
-def _near(pts: np.ndarray, hidden: np.ndarray) -> np.ndarray:
-    """Which points lie on the hidden target: in the bounding box of its box grown by HIDDEN_DILATE."""
+def _near(pts: np.ndarray, hidden: np.ndarray, dilate: float = HIDDEN_DILATE) -> np.ndarray:
+    """Which points lie on the hidden target: in the bounding box of its box grown by `dilate` about its centre."""
     centre = hidden.mean(0)
-    grown = centre + HIDDEN_DILATE * (hidden - centre)
+    grown = centre + dilate * (hidden - centre)
     return np.all((pts >= grown.min(0)) & (pts <= grown.max(0)), axis=1)
 
 
@@ -287,6 +307,7 @@ class BackgroundMotion:
         # (frame number, image, keyframe → image)
         self.chain: deque[tuple[int, np.ndarray, np.ndarray]] = deque(maxlen=self.config.hop)
         self.frame = 0
+        self.covered = False  # the hidden target is covered (COVERED_OP): set by the caller for each frame
         if forget_motion or not hasattr(self, "velocity"):
             self.velocity: np.ndarray | None = None  # the scene's last per-frame motion (similarity)
 
@@ -308,7 +329,8 @@ class BackgroundMotion:
             V = np.linalg.matrix_power(self.velocity, frames)
             expected = apply(V, pts[ok]) - pts[ok]
         p, q = pts[ok], nxt[ok]
-        S, inl = _consensus(p, q, c, expected, hidden if c.occluder_prior and c.competing else None)
+        S, inl = _consensus(p, q, c, expected, hidden if c.occluder_prior and c.competing else None,
+                            self.covered and c.occluder_prior)
         if S is None:
             return None
         return (_plane_refit(S, p[inl], q[inl], src.shape[:2]) if c.homography else S), S
