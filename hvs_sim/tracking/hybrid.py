@@ -127,8 +127,8 @@ SURROUNDINGS_GUESSES = 15
 # a re-acquisition (HybridTracker._reacquisition_verified): an alignment after the target was lost, after a cut, or
 # after this many frames without an alignment (half a second) must pass every check, not the score alone
 REACQUIRE_AFTER = 15
-# ... one of them: the template's NCC with the aligned patch, over the pixels an occluder does not cover (at least
-# APPEARANCE_MIN_SHOWN of them), within APPEARANCE_SLACK of what this track's own confident alignments measured
+# ... one of them: the template's NCC with the whole aligned patch (at least APPEARANCE_MIN_SHOWN of it in the frame),
+# within APPEARANCE_SLACK of what this track's own confident alignments measured
 APPEARANCE_SLACK = 0.15
 APPEARANCE_MIN_SHOWN = 0.6
 APPEARANCE_HISTORY = 30  # confident alignments whose appearance NCC sets that reference (their median)
@@ -345,17 +345,16 @@ class HybridTracker(Tracker):
         return seen >= c.reacquire_frames
 
     def _appearance(self, work: np.ndarray, A_work: np.ndarray) -> float:
-        """The template's NCC with the patch A_work aligns (grey, work px), over the pixels that match the template
-        within τ once the exposure gain is taken out (an occluder's pixels are left out); -1 when fewer than
-        APPEARANCE_MIN_SHOWN of them do. Unlike OP_t it is blind to contrast: a grey roof hatch and a grey
-        facade differ by less than τ everywhere, yet their NCC is low."""
+        """The template's NCC with the whole patch A_work aligns (grey, work px; -1 when under APPEARANCE_MIN_SHOWN of
+        it is in the frame). Unlike OP_t it is blind to contrast, and unlike a masked measure it counts every pixel:
+        a grey roof hatch and a grey facade differ by less than τ everywhere, and a half-faded copy of the target
+        keeps most pixels within τ, yet the NCC of either with the template is low."""
         al = self.aligner
         patch, inside = aligned_patch(work, A_work, al.t_origin, (al.th, al.tw))
-        p, t = patch.astype(np.float32), al.template.astype(np.float32)
-        keep = inside & (np.abs(p - np.float32(al.reference.gain(patch, inside)) * t) <= self.config.tau_pix)
-        if keep.mean() < APPEARANCE_MIN_SHOWN:
+        if inside.mean() < APPEARANCE_MIN_SHOWN:
             return -1.0
-        a, b = p[keep] - p[keep].mean(), t[keep] - t[keep].mean()
+        p, t = patch.astype(np.float32)[inside], al.template.astype(np.float32)[inside]
+        a, b = p - p.mean(), t - t.mean()
         den = float(np.sqrt((a @ a) * (b @ b)))
         return float(a @ b) / den if den > 1e-9 else -1.0
 
