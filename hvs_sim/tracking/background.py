@@ -28,7 +28,7 @@ predictor's estimate, and KeyframeAnchor (below) takes that error out once the w
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -69,6 +69,9 @@ class BackgroundConfig:
     # at least this many corners in each of CELL_GRID × CELL_GRID parts of the view (at that part's own contrast);
     # 0: the strongest `max_points` of the whole view only, as before
     cell_corners: int = 6
+    # re-anchoring: each keyframe's own corners give a homography keyframe → frame (the wall is a plane), which
+    # carries that keyframe's aligned pose; False: only the pooled similarity over all keyframes (KeyframeAnchor)
+    anchor_plane: bool = True
 
     def __post_init__(self):
         for name in ("hop", "keyframes", "spacing"):
@@ -79,7 +82,7 @@ class BackgroundConfig:
             raise ConfigError(f"need ransac_px > 0, max_fb_px > 0 and anchor_points >= 8, got "
                               f"{self.ransac_px}, {self.max_fb_px}, {self.anchor_points}")
         check_number("background cell_corners", self.cell_corners, 0, integer=True)
-        check_flags(self, ("competing", "homography", "occluder_prior"))
+        check_flags(self, ("competing", "homography", "occluder_prior", "anchor_plane"))
         if self.max_points < 8 or self.min_inliers < 4:
             raise ConfigError(f"background motion needs max_points >= 8 and min_inliers >= 4, "
                               f"got {self.max_points}, {self.min_inliers}")
@@ -116,6 +119,17 @@ OCCLUDER_MISS_PX = 2.0  # ... and moving no more than this further from the scen
 HOMOGRAPHY_MIN_INLIERS = 20
 HOMOGRAPHY_SPREAD = 0.6
 HOMOGRAPHY_AGREE_PX = 1.0
+# KeyframeAnchor's plane (BackgroundConfig.anchor_plane): a keyframe's homography counts on at least this many inliers
+# (within ANCHOR_PLANE_PX), spread over at least this share of the view's width and height. A similarity pooled over
+# keyframes whose poses were each the target's alone found no consensus at all (0 inliers of ~120) once a hand-held
+# camera had tilted a few degrees since them: away from the target the wall does not move as the target's similarity
+ANCHOR_PLANE_MIN_INLIERS = 20
+ANCHOR_PLANE_SPREAD = 0.4
+ANCHOR_PLANE_PX = 0.5
+# a keyframe seconds old is compared with a frame whose exposure has drifted by up to ±10 %: 12 grey levels of window
+# error rejected nearly every corner of a bright wall (0 of 150 followed); the forward–backward check and the plane's
+# RANSAC still judge each point
+ANCHOR_MAX_LK_ERROR = 30.0
 
 
 def _lk_params(c: BackgroundConfig) -> dict:
@@ -403,6 +417,28 @@ class KeyframeAnchor:
 
     def _follow(self, k: _Keyframe, grey: np.ndarray, predicted: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Corners of `k` in reference coordinates and where LK finds them in `grey` (trustworthy ones only)."""
+        src, dst = self._follow_raw(k, grey, predicted)
+        return (_transform(src, np.linalg.inv(k.A)) if len(src) else src), dst
+
+    def _plane(self, k: _Keyframe, grey: np.ndarray, predicted: np.ndarray) -> tuple[np.ndarray | None, int]:
+        """Reference → `grey` through the homography keyframe → `grey` of k's own corners (ANCHOR_PLANE_*), and its
+        inlier count; (None, 0) when they do not give a trustworthy one."""
+        src, dst = self._follow_raw(k, grey, predicted)
+        if len(src) < ANCHOR_PLANE_MIN_INLIERS:
+            return None, 0
+        H, mask = cv2.findHomography(src, dst, cv2.RANSAC, ANCHOR_PLANE_PX, maxIters=RANSAC_MAX_ITERS)
+        if H is None or not np.all(np.isfinite(H)) or abs(H[2, 2]) < 1e-12:
+            return None, 0
+        inl = mask[:, 0].astype(bool)
+        n = int(inl.sum())
+        h, w = grey.shape[:2]
+        if n < max(ANCHOR_PLANE_MIN_INLIERS, self.config.min_inlier_ratio * len(src)) or \
+                np.any(np.ptp(src[inl], axis=0) < ANCHOR_PLANE_SPREAD * np.array([w, h])):
+            return None, 0
+        return (H / H[2, 2]) @ k.A, n
+
+    def _follow_raw(self, k: _Keyframe, grey: np.ndarray, predicted: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Corners of `k` (its own pixels) and where LK finds them in `grey` (trustworthy ones only)."""
         c = self.config
         none = (np.empty((0, 2), np.float32), np.empty((0, 2), np.float32))
         if k.corners is None:
@@ -417,14 +453,25 @@ class KeyframeAnchor:
         if len(ref) < 4:
             return none
         warped = warp_image(k.image, P, (w, h), flags=cv2.INTER_LINEAR)
-        nxt, ok = _lk_checked(warped, grey, start, c)
+        nxt, ok = _lk_checked(warped, grey, start, replace(c, max_lk_error=ANCHOR_MAX_LK_ERROR))
         if not ok.any():
             return none
-        return _transform(ref[ok], to_ref), nxt[ok]
+        return ref[ok], nxt[ok]
+
+    def plane(self, grey: np.ndarray, predicted: np.ndarray) -> np.ndarray | None:
+        """Reference → `grey` through the keyframe whose own homography has the most inliers (anchor_plane), or None."""
+        if not self.config.anchor_plane:
+            return None
+        found = [self._plane(k, grey, np.asarray(predicted, float)) for k in self.keys]
+        best = max(found, key=lambda f: f[1], default=(None, 0))
+        return best[0]
 
     def update(self, grey: np.ndarray, predicted: np.ndarray) -> np.ndarray | None:
         """Similarity reference → `grey`, searched from `predicted`, or None when not trustworthy."""
         c = self.config
+        plane = self.plane(grey, predicted)
+        if plane is not None:
+            return plane
         pairs = [self._follow(k, grey, np.asarray(predicted, float)) for k in self.keys]
         if not pairs:
             return None

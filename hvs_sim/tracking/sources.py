@@ -63,6 +63,9 @@ def _translation(A: np.ndarray, center0: np.ndarray) -> np.ndarray:
     return matrix_to_pose(A, center0)[:2]
 
 
+ANCHOR_DRIFT_PX = 0.5  # px a frame the scene's chain may have drifted since the last alignment (KeyframeAnchorSource)
+
+
 class KeyframeAnchorSource:
     """Absolute re-measurement after predictor-only frames; its jump is bounded by the predictor's
     possible drift (`gate_px` per unmeasured frame)."""
@@ -78,14 +81,19 @@ class KeyframeAnchorSource:
         self.anchor.add(state.keyframe[0], self.aligner.to_work(state.keyframe[1]), 0)
 
     def propose(self, work, state):
-        if state.drift_run == 0:
+        # after predictor-only frames: the keyframes' planes, else their pooled similarity; on the other unaligned
+        # frames the planes alone (BackgroundConfig.anchor_plane): an absolute measurement where the chain of hops
+        # drifts (2-10 px over a 3 s occlusion of a hand-held view, handheld photos' dev split)
+        if state.drift_run == 0 and not self.anchor.config.anchor_plane:
             return None
-        M = self.anchor.update(work, self.aligner.to_work(state.A))
+        predicted = self.aligner.to_work(state.A)
+        M = self.anchor.plane(work, predicted) if state.drift_run == 0 else self.anchor.update(work, predicted)
         if M is None:
             return None
         A = self.aligner.to_full(M)
         moved = np.linalg.norm(_translation(A, state.center0) - _translation(state.A, state.center0))
-        if moved > self.gate_px * (1 + state.drift_run):  # the predictor's drift bounds the jump
+        # the predictor's drift bounds the jump, and the chain's (ANCHOR_DRIFT_PX a frame since the last alignment)
+        if moved > self.gate_px * (1 + state.drift_run) + ANCHOR_DRIFT_PX * state.since_aligned:
             return None
         return Proposal(A, Kind.ABSOLUTE, Mode.PREDICT, self.name)
 
