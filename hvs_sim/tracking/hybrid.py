@@ -30,10 +30,20 @@ LK, residual), the OP_t gate, and motion sources tried in order on frames that a
 changes from frame to frame, and its four transitions — aligned, measured, predicted, lost — are
 the only way it changes.
 
+A re-acquisition (after `lost`, a cut, or REACQUIRE_AFTER frames without an alignment) must pass several
+checks, not the NCC score alone: the whole aligned patch's NCC with the template within APPEARANCE_SLACK of this
+track's own confident alignments; and either a place the measured surroundings agree with, or a unique match (no
+look-alike beyond half the template's side, which also catches a kerb's look-alike along it) seen at one place on
+`reacquire_frames` consecutive frames. An unrelated shot's facade that scores 0.6–0.7 is refused; so is a
+look-alike 35 px along a weakly textured target after many predicted frames, which the predictor's growing bound
+used to take in. Every `lost` episode says why in the tracker's notes (`hvs-sim track` prints them).
+
 The extrapolating predictor is bounded: after `max_predict_frames` consecutive frames with neither
 an alignment nor a background measurement (default 45, 1.5 s at 30 Hz) the mode becomes "lost" and
 the estimate stops moving until re-acquisition. A scene cut (`cut_ncc`) and `max_unaligned_frames`
-without an alignment also end in "lost", whatever the surroundings say.
+without an alignment also end in "lost", whatever the surroundings say; so does `max_predict_frames` without an
+alignment while `auto` has not yet decided the target's motion (a target that moves or changes shape is not where
+its surroundings put it: the box would stay frozen on the background).
 
 All of the above takes the target to be fixed in the scene (`target_motion="static"`, the servo loop's case). For
 footage whose target moves on its own, `"moving"` drops the surroundings (the predictor alone fills gaps, and a far
