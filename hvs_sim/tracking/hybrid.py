@@ -30,10 +30,20 @@ LK, residual), the OP_t gate, and motion sources tried in order on frames that a
 changes from frame to frame, and its four transitions — aligned, measured, predicted, lost — are
 the only way it changes.
 
+A re-acquisition (after `lost`, a cut, or REACQUIRE_AFTER frames without an alignment) must pass several
+checks, not the NCC score alone: the whole aligned patch's NCC with the template within APPEARANCE_SLACK of this
+track's own confident alignments; and either a place the measured surroundings agree with, or a unique match (no
+look-alike beyond half the template's side, which also catches a kerb's look-alike along it) seen at one place on
+`reacquire_frames` consecutive frames. An unrelated shot's facade that scores 0.6–0.7 is refused; so is a
+look-alike 35 px along a weakly textured target after many predicted frames, which the predictor's growing bound
+used to take in. Every `lost` episode says why in the tracker's notes (`hvs-sim track` prints them).
+
 The extrapolating predictor is bounded: after `max_predict_frames` consecutive frames with neither
 an alignment nor a background measurement (default 45, 1.5 s at 30 Hz) the mode becomes "lost" and
 the estimate stops moving until re-acquisition. A scene cut (`cut_ncc`) and `max_unaligned_frames`
-without an alignment also end in "lost", whatever the surroundings say.
+without an alignment also end in "lost", whatever the surroundings say; so does `max_predict_frames` without an
+alignment while `auto` has not yet decided the target's motion (a target that moves or changes shape is not where
+its surroundings put it: the box would stay frozen on the background).
 
 All of the above takes the target to be fixed in the scene (`target_motion="static"`, the servo loop's case). For
 footage whose target moves on its own, `"moving"` drops the surroundings (the predictor alone fills gaps, and a far
@@ -44,6 +54,7 @@ jump from where the target's own motion puts it needs a unique match); `"auto"` 
 from __future__ import annotations
 
 import time
+from collections import deque
 from dataclasses import dataclass, field, replace
 
 import cv2
@@ -123,6 +134,16 @@ CUT_MIN_CONTRAST = 2.0 / 255  # a thumbnail with less RMS contrast (intensity in
 # chain unmeasured for 6 frames before its far match came (natural benchmark, `lookalike`); a jump within the
 # predictor's possible drift is accepted anyway (HybridConfig.reacquire_px, background_gate_px)
 SURROUNDINGS_GUESSES = 15
+# a re-acquisition (HybridTracker._reacquisition_verified): an alignment after the target was lost, after a cut, or
+# after this many frames without an alignment (half a second) must pass every check, not the score alone
+REACQUIRE_AFTER = 15
+# ... one of them: the template's NCC with the whole aligned patch (at least APPEARANCE_MIN_SHOWN of it in the frame),
+# within APPEARANCE_SLACK of what this track's own confident alignments measured
+APPEARANCE_SLACK = 0.15
+APPEARANCE_MIN_SHOWN = 0.6
+APPEARANCE_HISTORY = 30  # confident alignments whose appearance NCC sets that reference (their median)
+APPEARANCE_RECORD_OCC = 0.1  # an alignment with OP_t up to this is confident enough to set it
+LOST_NOTES = 5  # `lost` episodes explained in the tracker's notes, one line each; later ones are counted
 CONFIDENCE_HALF_LIFE = 30  # frames (1 s at 30 Hz) since the last alignment over which an unaligned pose's confidence halves
 PREDICTED_CONFIDENCE = 0.5  # a predictor's guess, relative to a measurement of the scene's motion
 
@@ -277,6 +298,8 @@ class HybridTracker(Tracker):
         c = self.hconfig
         self.target_motion = None if c.target_motion == "auto" else c.target_motion
         self._evidence, self._evidence_frames, self._aligned_frames = np.zeros(2), 0, 0
+        self._appearance_seen: deque[float] = deque(maxlen=APPEARANCE_HISTORY)  # confident alignments' appearance
+        self._lost_episodes = 0  # `lost` episodes begun (LOST_NOTES of them are explained in the notes)
         self.sources = ([self.predictor_source] if self.target_motion == "moving" else
                         [*self.scene_sources, self.predictor_source])
         for s in self.sources:
@@ -311,6 +334,8 @@ class HybridTracker(Tracker):
         if not c.verify_reacquisition:
             return True
         unique = m.score - m.second >= c.reacquire_margin  # no look-alike elsewhere: the peak stands out
+        if st.is_lost or st.after_cut or st.since_aligned >= REACQUIRE_AFTER:
+            return self._reacquisition_verified(A, m, work, unique)
         if self.target_motion != "static":
             expected = self.predictor_source.predictor.peek()
             miss = np.linalg.norm(matrix_to_pose(A, st.center0)[:2] - expected)
@@ -326,6 +351,55 @@ class HybridTracker(Tracker):
         seen = st.jump_seen(offset, c.background_gate_px)
         held = st.scene_held and st.drift_run <= SURROUNDINGS_GUESSES
         if c.surroundings_veto_frames and held and seen < c.surroundings_veto_frames:
+            return False  # the surroundings, measured since the alignment, put the target elsewhere
+        return seen >= c.reacquire_frames
+
+    def _appearance(self, work: np.ndarray, A_work: np.ndarray) -> float:
+        """The template's NCC with the whole patch A_work aligns (grey, work px; -1 when under APPEARANCE_MIN_SHOWN of
+        it is in the frame). Unlike OP_t it is blind to contrast, and unlike a masked measure it counts every pixel:
+        a grey roof hatch and a grey facade differ by less than τ everywhere, and a half-faded copy of the target
+        keeps most pixels within τ, yet the NCC of either with the template is low."""
+        al = self.aligner
+        patch, inside = aligned_patch(work, A_work, al.t_origin, (al.th, al.tw))
+        if inside.mean() < APPEARANCE_MIN_SHOWN:
+            return -1.0
+        p, t = patch.astype(np.float32)[inside], al.template.astype(np.float32)[inside]
+        a, b = p - p.mean(), t - t.mean()
+        den = float(np.sqrt((a @ a) * (b @ b)))
+        return float(a @ b) / den if den > 1e-9 else -1.0
+
+    def _looks_like_target(self, work: np.ndarray, A: np.ndarray) -> bool:
+        """Whether the patch at A (full res) shows the target as this track's confident alignments showed it
+        (_appearance within APPEARANCE_SLACK of their median, and at least the match threshold)."""
+        seen = float(np.median(self._appearance_seen)) if self._appearance_seen else 1.0
+        bar = max(self.config.match_threshold, seen - APPEARANCE_SLACK)
+        return self._appearance(work, self.aligner.to_work(A)) >= bar
+
+    def _reacquisition_verified(self, A: np.ndarray, m, work: np.ndarray | None, unique: bool) -> bool:
+        """A re-acquisition (REACQUIRE_AFTER): the target found again after a loss, a cut or a long gap. Every
+        check must agree: the aligned patch looks like the target (_looks_like_target); and either it lies where
+        the surroundings, measured on these frames, put the target (a static target, not lost), or the match is
+        unique (no look-alike within the frame, nor along a weakly textured target's own direction) and seen at one
+        place on `reacquire_frames` consecutive frames. Distance from a guess is no evidence: after many
+        predicted frames the predictor's bound would take in any look-alike nearby."""
+        c, st = self.hconfig, self.state
+        if work is None or not self._looks_like_target(work, A):
+            st.jump_seen(None, 0.0)
+            return False
+        offset = matrix_to_pose(A, st.center0)[:2] - matrix_to_pose(st.A, st.center0)[:2]
+        measured = (self.target_motion == "static" and not (st.is_lost or st.after_cut) and st.scene_held
+                    and st.drift_run <= SURROUNDINGS_GUESSES)
+        if measured and (np.linalg.norm(offset) <= c.reacquire_px + c.reacquire_drift_px * st.since_aligned
+                         or self._surroundings_agree(A, work)):
+            st.jump_seen(None, 0.0)
+            return True
+        if not unique:
+            st.jump_seen(None, 0.0)
+            return False
+        # a static target's estimate follows the view, so the same place keeps its offset; a moving one's may not
+        tolerance = c.background_gate_px if self.target_motion == "static" else c.reacquire_px
+        seen = st.jump_seen(offset, tolerance)
+        if measured and c.surroundings_veto_frames and seen < c.surroundings_veto_frames:
             return False  # the surroundings, measured since the alignment, put the target elsewhere
         return seen >= c.reacquire_frames
 
@@ -374,6 +448,8 @@ class HybridTracker(Tracker):
         t0 = time.perf_counter()
         work = al.work_image(frame)
         cut = st.saw(_thumb(work)) < self.hconfig.cut_ncc  # nothing of the last frame is in this one
+        if cut and self.target_motion is None:  # `auto`'s evidence compares with the surroundings, which a cut ends
+            self._evidence, self._evidence_frames = np.zeros(2), 0
         t1 = time.perf_counter()
         m, A_seed, occ, is_current = al.coarse(work, st.A)
         t2 = time.perf_counter()
@@ -393,6 +469,8 @@ class HybridTracker(Tracker):
                 if occ_aligned >= gate:
                     A_new = None
             if A_new is not None and self._verified(al.to_full(A_new), m, work):
+                if occ_aligned <= APPEARANCE_RECORD_OCC:  # what the target looks like when surely found
+                    self._appearance_seen.append(self._appearance(work, A_new))
                 if self.target_motion is None:
                     self._judge_motion(work, al.to_full(A_new))
                 st.aligned(work, al.to_full(A_new), self.sources)
@@ -402,9 +480,27 @@ class HybridTracker(Tracker):
         else:
             st.jump_seen(None, 0.0)
         t4 = time.perf_counter()
+        if is_current:  # OP_t at the estimate: how much of the target the occluder covers (background.COVERED_OP)
+            st.hidden_share = occ
+        else:
+            A_est = al.to_work(st.A)
+            st.hidden_share = self._occlusion_at(frame, A_est, None if self.colour_reference is not None
+                                                 else al.occlusion(work, A_est))
         est = self._predict(work, occ, m, cut)
         self.stage_ms["sources"] = 1e3 * (time.perf_counter() - t4)
         return est
+
+    def _lost(self, work: np.ndarray, reason: str, cut: bool) -> None:
+        """The `lost` transition; the first frame of a `lost` episode says why in the notes (LOST_NOTES of them)."""
+        st = self.state
+        if not st.is_lost:
+            self._lost_episodes += 1
+            if self._lost_episodes <= LOST_NOTES:
+                self.notes.append(f"lost at frame {st.frame_index}: {reason}; the target's appearance last matched "
+                                  f"its template {st.since_aligned} frames before")
+            elif self._lost_episodes == LOST_NOTES + 1:
+                self.notes.append(f"lost again from frame {st.frame_index} (later episodes are not listed)")
+        st.lost(work, self.sources, cut=cut)
 
     def _predict(self, work: np.ndarray, occ: float, m, cut: bool) -> Estimate:
         """The first motion source with a proposal moves the estimate (module docstring); after a scene cut, or too
@@ -415,8 +511,19 @@ class HybridTracker(Tracker):
             if proposal is not None:
                 st.measured(work, proposal, self.sources)
                 return Estimate(st.A, proposal.mode, occ, m.score, self._unaligned_confidence(proposal.kind))
-        if cut or st.after_cut or st.since_aligned >= self.hconfig.max_unaligned_frames:
-            st.lost(work, self.sources, cut=cut)
+        c = self.hconfig
+        reason = None
+        if cut or st.after_cut:
+            reason = "a scene cut (the frame shares nothing with the one before)"
+        elif st.since_aligned >= c.max_unaligned_frames:
+            reason = f"not aligned for {st.since_aligned} frames, whatever the surroundings say"
+        elif self.target_motion is None and st.since_aligned >= c.max_predict_frames:
+            # `auto` has not yet seen the target stay put in its surroundings: their motion is no more its motion
+            # than a guess, and a target that moves or changes shape is not where they put it
+            reason = (f"not aligned for {st.since_aligned} frames while its motion was still undecided: the "
+                      "surroundings cannot say where it is")
+        if reason is not None:
+            self._lost(work, reason, cut)
             return Estimate(st.A, Mode.LOST, occ, m.score, 0.0)
         for source in self.sources:
             proposal = source.propose(work, st)
@@ -424,7 +531,7 @@ class HybridTracker(Tracker):
                 continue
             if proposal.kind == Kind.PREDICTED:
                 if proposal.mode == Mode.LOST:
-                    st.lost(work, self.sources)
+                    self._lost(work, f"nothing measured its position for {st.predict_run} frames", False)
                 else:
                     st.predicted(work, proposal.A, self.sources)
             else:
