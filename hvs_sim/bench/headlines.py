@@ -151,6 +151,27 @@ def _servo_row(root, fig, test: str, fresh: str, scenarios=("walk_by", "pause"),
     return f"test seeds: {t_text}; fresh seeds: {f_text}; success {agree}"
 
 
+def _safety_row(root, fig, names: tuple[str, ...], scenarios=("clear", "walk_by", "pause", "blackout"),
+                method="hybrid:homography") -> str:
+    """Per camera: held to the end per scenario, the runaways, and how far the camera moved while the target was
+    hidden in `blackout` (median, worst), from the per-episode records."""
+    parts = []
+    for name in names:
+        f = _folder(root, name, fig)
+        data = json.loads((f / "summary.json").read_text())
+        eps = [e for e in data["episodes"] if e["method"] == method]
+        per = [servo_figures(f, s, method) for s in scenarios]
+        runaways = sum(bool(e.get("runaway")) for e in eps)
+        drift = [e["max_drift_while_hidden_mm"] for e in eps
+                 if e["scenario"] == "blackout" and e.get("max_drift_while_hidden_mm") is not None]
+        camera = data["config"]["camera"]
+        camera = camera if isinstance(camera, str) else camera.get("name", "?")
+        parts.append(f"`{camera}`: **{' / '.join(fig(p['held'], '.0f') for p in per)} %** {SERVO_RULE} "
+                     f"({per[0]['n']} episodes each), **{runaways} runaways**, camera drift while hidden in blackout "
+                     f"{fig(float(np.median(drift)), '.1f')} mm median, {fig(float(np.max(drift)), '.1f')} mm worst")
+    return "fresh seeds: " + "; ".join(parts)
+
+
 def _speed_row(root, fig, name: str) -> str:
     f = _folder(root, name, fig)
     res = json.loads((f / "speed.json").read_text())
@@ -173,6 +194,9 @@ ROWS: list[tuple[str, Callable[[Path, Figures], str]]] = [
      lambda r, f: _servo_row(r, f, "servo_robot_cell_test", "servo_robot_cell_fresh")),
     (f"the same through `phone_handheld`: {SERVO_RULE}",
      lambda r, f: _servo_row(r, f, "servo_phone_test", "servo_phone_fresh")),
+    (("the safety rule (clear / walk_by / pause / blackout, hybrid:homography): held to the end; runaways (camera "
+      "ended > 50 mm further from the goal than it started, or stopped by the envelope)"),
+     lambda r, f: _safety_row(r, f, ("safety_robot_cell_fresh", "safety_phone_fresh"))),
     ("speed on this 2-core CPU machine",
      lambda r, f: _speed_row(r, f, "loop_speed")),
 ]
