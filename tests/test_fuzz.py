@@ -100,8 +100,8 @@ def stubs(monkeypatch, tmp_path):
     brief = dict.fromkeys(("converged", "held_to_end", "steps_to_converge", "final_error_px", "final_pose_error_mm",
                            "final_pose_error_deg", "final_controlled_pose_error_mm",
                            "final_controlled_pose_error_deg", "controlled_dofs", "max_error_px_during_occlusion",
-                           "lost_steps", "predict_steps", "fault_steps", "steps_per_second"), 0)
-    brief.update(not_converged_because="image 1.00 px > 0.5 px", faults=[], figures=[])
+                           "lost_steps", "predict_steps", "fault_steps", "held_steps", "steps_per_second"), 0)
+    brief.update(not_converged_because="image 1.00 px > 0.5 px", faults=[], figures=[], held_because={}, aborted=None)
     monkeypatch.setattr(runner, "run_episode", lambda *a, **k: (brief, []))
     monkeypatch.setattr(sequence, "write_sequence", lambda *a, **k: {"frames": 1, "peak_occlusion": 0.0})
     gt = SimpleNamespace(corners=np.array([[1.0, 1], [9, 1], [9, 9], [1, 9]]), center=np.array([5.0, 5.0]))
