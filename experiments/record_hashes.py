@@ -78,8 +78,7 @@ def episode_hashes(name: str) -> dict[str, str]:
         for f in dataclasses.fields(r):
             if f.name not in SKIP:
                 per_field.setdefault(f.name, []).append(getattr(r, f.name))
-    track_ms = [getattr(t, "ms", None) for t in per_field.get("track", [])]
-    if track_ms:  # a Track's own wall time is the machine's too
+    if "track" in per_field:  # a Track's own wall time is the machine's too
         per_field["track"] = [None if t is None else dataclasses.replace(t, ms=0.0) for t in per_field["track"]]
     return {k: _digest(v) for k, v in sorted(per_field.items())}
 

@@ -99,11 +99,16 @@ def agreement(fresh: float, interval: tuple[float, float], fig: Figures, spec: s
             f"({fig(lo, spec)}–{fig(hi, spec)})")
 
 
-def servo_figures(folder: Path, scenario: str, method: str) -> dict:
-    """Success under the held-to-end rule and median final pose errors, from the per-episode records."""
+def servo_summary(folder: Path) -> dict:
+    return json.loads((folder / "summary.json").read_text())
+
+
+def servo_figures(folder: Path, scenario: str, method: str, data: dict | None = None) -> dict:
+    """Success under the held-to-end rule and median final pose errors, from the per-episode records (`data`: the
+    folder's summary.json, where the caller has read it already)."""
     from hvs_sim.bench.stats import episode_success, wilson
 
-    data = json.loads((folder / "summary.json").read_text())
+    data = servo_summary(folder) if data is None else data
     eps = [e for e in data["episodes"] if e["scenario"] == scenario and e["method"] == method]
     if not eps:
         raise ConfigError(f"{folder}/summary.json has no {method} episodes of {scenario}")
@@ -138,7 +143,8 @@ def _track_row(root, fig, test: str, fresh: str, methods, target_set: bool) -> s
 def _servo_row(root, fig, test: str, fresh: str, scenarios=("walk_by", "pause"), method="hybrid:homography") -> str:
     def one(name):
         f = _folder(root, name, fig)
-        per = [servo_figures(f, s, method) for s in scenarios]
+        data = servo_summary(f)
+        per = [servo_figures(f, s, method, data) for s in scenarios]
         n = per[0]["n"]
         text = (f"**{' / '.join(fig(p['held'], '.0f') for p in per)} %** {SERVO_RULE}, median "
                 f"{' / '.join(fig(p['mm'], '.2f') for p in per)} mm, {' / '.join(fig(p['deg'], '.3f') for p in per)}°, "
@@ -158,9 +164,9 @@ def _safety_row(root, fig, names: tuple[str, ...], scenarios=("clear", "walk_by"
     parts = []
     for name in names:
         f = _folder(root, name, fig)
-        data = json.loads((f / "summary.json").read_text())
+        data = servo_summary(f)
         eps = [e for e in data["episodes"] if e["method"] == method]
-        per = [servo_figures(f, s, method) for s in scenarios]
+        per = [servo_figures(f, s, method, data) for s in scenarios]
         runaways = sum(bool(e.get("runaway")) for e in eps)
         drift = [e["max_drift_while_hidden_mm"] for e in eps
                  if e["scenario"] == "blackout" and e.get("max_drift_while_hidden_mm") is not None]

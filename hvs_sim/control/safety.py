@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from hvs_sim.errors import ConfigError
+from hvs_sim.geometry import rotation_vector
 from hvs_sim.validate import check_flags, check_number
 
 # the bounds' defaults, chosen on dev seeds (docs/tuning.md, "The safety rule")
@@ -76,14 +76,11 @@ class SafetyConfig:
         check_number("safety resume_px", self.resume_px, 0, lo_open=True)
         check_number("safety envelope_margin_m", self.envelope_margin_m, 0, lo_open=True)
         check_number("safety envelope_margin_deg", self.envelope_margin_deg, 0, 180, lo_open=True)
-        if isinstance(self.resume_frames, bool):
-            raise ConfigError(f"safety resume_frames must be a whole number, got {self.resume_frames!r}")
 
 
 def quad_area(pts: np.ndarray) -> float:
-    """Signed area (px²) of a quad's corners in order (shoelace)."""
-    x, y = pts[:, 0], pts[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+    """Signed area (px²) of a quad's corners in order: positive for TL, TR, BR, BL in the image, negative crossed back."""
+    return float(cv2.contourArea(np.asarray(pts, np.float32), oriented=True))
 
 
 class SafetyGate:
@@ -173,12 +170,6 @@ class SafetyGate:
         return self.trusted_twist * self.factor
 
 
-@dataclass(frozen=True)
-class EnvelopeCheck:
-    inside: bool
-    reason: str | None
-
-
 class Envelope:
     """The workspace the camera may not leave (see the module): fixed at the episode's start from the camera's pose
     then (forward kinematics) and the taught goal."""
@@ -190,8 +181,9 @@ class Envelope:
         self.radius_m = d0 + config.envelope_margin_m
         self.max_deg = rotation_deg(start_R, goal_R) + config.envelope_margin_deg
 
-    def check(self, pos, R, twist_cam: np.ndarray, dt: float) -> EnvelopeCheck:
-        """Whether the camera at (pos, R) commanded `twist_cam` (camera frame) stays inside for one more step."""
+    def check(self, pos, R, twist_cam: np.ndarray, dt: float) -> str | None:
+        """Why the camera at (pos, R) commanded `twist_cam` (camera frame) would leave within one step; None: it
+        stays inside."""
         R = np.asarray(R, float)
         nxt = np.asarray(pos, float) + R @ np.asarray(twist_cam[:3], float) * dt
         from_goal = float(np.linalg.norm(nxt - self.goal_pos))
@@ -200,21 +192,19 @@ class Envelope:
         R_next = _rotation(w) @ R
         deg = rotation_deg(R_next, self.goal_R)
         if from_goal > self.radius_m:
-            return EnvelopeCheck(False, f"the camera would be {1e3 * from_goal:.0f} mm from the goal, beyond the "
-                                        f"envelope's {1e3 * self.radius_m:.0f} mm")
+            return (f"the camera would be {1e3 * from_goal:.0f} mm from the goal, beyond the envelope's "
+                    f"{1e3 * self.radius_m:.0f} mm")
         if from_start > self.radius_m:
-            return EnvelopeCheck(False, f"the camera would be {1e3 * from_start:.0f} mm from its start, beyond the "
-                                        f"envelope's {1e3 * self.radius_m:.0f} mm")
+            return (f"the camera would be {1e3 * from_start:.0f} mm from its start, beyond the envelope's "
+                    f"{1e3 * self.radius_m:.0f} mm")
         if deg > self.max_deg:
-            return EnvelopeCheck(False, f"the camera would be turned {deg:.1f}° from the goal, beyond the envelope's "
-                                        f"{self.max_deg:.1f}°")
-        return EnvelopeCheck(True, None)
+            return f"the camera would be turned {deg:.1f}° from the goal, beyond the envelope's {self.max_deg:.1f}°"
+        return None
 
 
 def rotation_deg(Ra, Rb) -> float:
     """The angle (degrees) of the rotation between two rotation matrices."""
-    c = (np.trace(np.asarray(Ra, float).T @ np.asarray(Rb, float)) - 1.0) / 2.0
-    return math.degrees(math.acos(float(np.clip(c, -1.0, 1.0))))
+    return math.degrees(float(np.linalg.norm(rotation_vector(np.asarray(Ra, float).T @ np.asarray(Rb, float)))))
 
 
 def _rotation(w: np.ndarray) -> np.ndarray:

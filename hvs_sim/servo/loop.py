@@ -323,8 +323,12 @@ class ServoLoop:
         ep.gate = SafetyGate(safety, self.scenario.fps, ep.desired, cam.width, cam.height)
         goal_pos, goal_R = self.scene.reference_pose()
         ep.envelope = Envelope(safety, cap.gt.camera.t, cap.gt.camera.R, goal_pos, goal_R)
-        ep.carrier = FeatureFilter(self.renderer.K, 1.0, self._pinhole(ep.desired), self.desired_depth) \
-            if self.tracker is not None else None
+        ep.carrier = self._carrier(ep.desired) if self.tracker is not None else None
+
+    def _carrier(self, desired: np.ndarray) -> FeatureFilter:
+        """The safety gate's carrier: a feature filter that keeps each measurement whole (α = 1), for its prediction of
+        where the camera's own motion takes the last one."""
+        return FeatureFilter(self.renderer.K, 1.0, self._pinhole(desired), self.desired_depth)
 
     def _template_box(self, outline, inset: int, option: str) -> tuple[int, int, int, int]:
         """The template's box: the target's outline box inset (grown, when negative); InputError when a grown box runs
@@ -369,7 +373,7 @@ class ServoLoop:
             ep.feature_filter = self._feature_filter(near.desired)
         ep.gate.set_desired(near.desired)
         if ep.carrier is not None:  # other corners from here: nothing to carry
-            ep.carrier = FeatureFilter(self.renderer.K, 1.0, self._pinhole(near.desired), self.desired_depth)
+            ep.carrier = self._carrier(near.desired)
         ep.grown_at, ep.grow_from = step, None
 
     def _feature_filter(self, desired: np.ndarray) -> FeatureFilter:
@@ -466,9 +470,8 @@ class ServoLoop:
         twist = ep.gate.twist(ctrl.twist if ctrl is not None else None)
         if not np.any(twist):
             return twist
-        inside = ep.envelope.check(cap.gt.camera.t, cap.gt.camera.R, twist, 1.0 / self.scenario.fps)
-        if not inside.inside:
-            ep.aborted = inside.reason
+        ep.aborted = ep.envelope.check(cap.gt.camera.t, cap.gt.camera.R, twist, 1.0 / self.scenario.fps)
+        if ep.aborted is not None:
             return np.zeros(6)
         return twist
 

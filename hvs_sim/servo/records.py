@@ -235,6 +235,7 @@ class RunStats:
                                "note": "after step 0, the step's wall time less its stages: the consumer's "
                                        "bookkeeping (CSV, progress bar, statistics) and the loop's own between stages"}
         tracker_err = self.tracker_error_px[:n]
+        final_mm, initial_mm = (float(np.linalg.norm(r.pose_error[:3])) for r in (final, self.first))
         return {
             "controller": None if config.policy is not None else config.controller,
             "policy": config.policy,
@@ -251,7 +252,7 @@ class RunStats:
                            "applies_to": list(final.dofs),
                            "note": "converged = image error under converge_px and the pose error in these DOFs under "
                                    "the bound, both held hold_steps steps"},
-            "final_pose_error_mm": float(np.linalg.norm(final.pose_error[:3])),
+            "final_pose_error_mm": final_mm,
             "final_pose_error_deg": float(np.linalg.norm(final.pose_error[3:])),
             "final_pose_error": dict(zip(("x_mm", "y_mm", "z_mm", "about_x_deg", "about_y_deg", "about_z_deg"),
                                          (float(v) for v in final.pose_error))),
@@ -266,13 +267,12 @@ class RunStats:
             "held_to_end": held,
             "not_converged_because": (None if held else f"aborted: {self.aborted}" if self.aborted
                                       else self._why_not(err[-1], ctrl_pose[-1])),
-            "initial_pose_error_mm": float(np.linalg.norm(self.first.pose_error[:3])),
+            "initial_pose_error_mm": initial_mm,
             # the safety rule (LoopConfig.safety): why the episode was ended early, the steps it held the arm and why
             "aborted": self.aborted,
             "held_steps": self.held,
             "held_because": dict(sorted(self.held_because.items())),
-            "runaway": bool(self.aborted is not None or (np.linalg.norm(final.pose_error[:3])
-                                                          - np.linalg.norm(self.first.pose_error[:3])) > RUNAWAY_MM),
+            "runaway": self.aborted is not None or final_mm - initial_mm > RUNAWAY_MM,
             "initial_pose_error_deg": float(np.linalg.norm(self.first.pose_error[3:])),
             **self._occlusion_figures(),
             "steps_to_converge": steps_to_converge,
