@@ -216,6 +216,7 @@ def test_the_blackout_scenario_hides_the_target_for_ten_seconds_near_the_goal():
     (plan,) = sc.occluders
     assert plan.kind == "pause" and plan.pause_s == 10.0
     assert plan.t_cross - plan.pause_s / 2 < 3.0 < plan.t_cross + plan.pause_s / 2 + 1.0 < sc.duration
+    assert sc.duration - (plan.t_cross + plan.pause_s / 2) >= 7.0  # time to converge after the person leaves
 
 
 def test_camera_drift_while_hidden_is_measured_from_where_each_hidden_stretch_began():

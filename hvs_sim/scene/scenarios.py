@@ -247,8 +247,10 @@ _PRESETS: dict[str, dict] = {
     "pause": {"occluders": (OccluderPlan("pause", t_cross=3.0, speed=0.45, pause_s=1.5),), "duration": 7.0},
     "partial": {"occluders": (OccluderPlan("hover", t_cross=1.0, cover=(0.32, 0.62), direction=-1),)},
     # a person stands over the target for 10 s from about 2.5 s, when a servo from the benchmark's starts is near
-    # its goal, then leaves: the loop must hold still while it cannot see and converge after (the safety rule)
-    "blackout": {"occluders": (OccluderPlan("pause", t_cross=7.5, speed=0.45, pause_s=10.0),), "duration": 15.0},
+    # its goal, then leaves: the loop must hold still while it cannot see and converge after (the safety rule).
+    # The person is gone by ~12.9 s; 20 s leaves the servo about as long after that (7 s, 9 with the benchmark's
+    # extra steps) as a whole clear episode lasts (8 s), so the final error measures convergence, not a cut-off
+    "blackout": {"occluders": (OccluderPlan("pause", t_cross=7.5, speed=0.45, pause_s=10.0),), "duration": 20.0},
     "two_people": {
         "occluders": (
             OccluderPlan("walk", t_cross=2.5, speed=0.5, depth=0.5, direction=1),
