@@ -38,12 +38,13 @@ from hvs_sim.bench.sequences import make_sequence
 from hvs_sim.bench.track import run_tracker
 from hvs_sim.runner import run_episode
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+from hvs_sim.sensor import sensor_preset
 from hvs_sim.servo.config import LoopConfig
 from hvs_sim.tracking import make_tracker
 from hvs_sim.tracking.base import Tracker
 
 sys.path.insert(0, str(Path(__file__).parent))
-from bench_render import time_presets
+from bench_render import VARIANTS, time_presets
 
 STAGES = ("render", "ground_truth", "track", "control", "physics", "log", "other")
 PRESET_FRAMES = 100  # walk_by hand-held frames per camera preset (the person crosses from frame ~60)
@@ -51,7 +52,9 @@ PRESET_FRAMES = 100  # walk_by hand-held frames per camera preset (the person cr
 
 def loop_run(name: str, steps: int, evaluate: bool, rrd: bool, multisample: int | None, pipeline: bool, tmp: Path,
              keep: bool = False, camera: str = "ideal") -> dict:
-    base = make_scenario("walk_by", mount="arm", seed=0, camera=CameraConfig(sensor=camera))
+    preset, _, variant = camera.partition(":")  # "phone_handheld:small": bench_render's VARIANTS
+    sensor = sensor_preset(preset, **(VARIANTS[variant] if variant else {}))
+    base = make_scenario("walk_by", mount="arm", seed=0, camera=CameraConfig(sensor=sensor))
     scen = base if multisample is None else dataclasses.replace(
         base, camera=dataclasses.replace(base.camera, multisample=multisample))
     cfg = LoopConfig(steps=steps, evaluate=evaluate, keep_frames=rrd, pipeline=pipeline)
@@ -205,7 +208,8 @@ def main() -> None:
     ap.add_argument("--camera-pairs", type=int, default=0,
                     help="also run the loop through each of --cameras in turn this many times (0: not)")
     ap.add_argument("--cameras", nargs="+", default=["ideal", "phone_handheld"],
-                    help="the cameras of --camera-pairs, the reference first")
+                    help="the cameras of --camera-pairs, the reference first; PRESET:VARIANT for bench_render's "
+                         "VARIANTS (phone_handheld:sharp, phone_handheld:small)")
     ap.add_argument("--camera-config", default="no_rrd", help="the configuration of --camera-pairs' loops")
     args = ap.parse_args()
     out = Path(args.out)

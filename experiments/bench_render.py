@@ -5,7 +5,9 @@ per camera preset, and a figure of one frame through each preset.
         --figure experiments/results/figures/camera_presets.png
 
 `--supersample 2 3` also times the presets with each pixel the mean of k×k samples (CameraConfig.supersample), as
-ratios to the same preset without; `--figure ''` writes no figure. The presets (and their blur ways) are timed
+ratios to the same preset without; `--variants sharp small` also times each realistic preset without motion blur
+(one render a frame: the least its light can cost) and with half-size sub-frames (`SensorModel.blur_subframe_scale`
+2); `--figure ''` writes no figure. The presets (and their blur ways) are timed
 interleaved, frame by frame in one process, so each one's whole frame over `ideal`'s (`ratio_to_ideal`) holds on a
 busy machine; the JSON keeps the load average at the start and the end.
 """
@@ -31,16 +33,22 @@ FIGURE_FRAMES = (40, 78)  # walk_by hand-held seed 0: the camera drifting, and t
 CROP = (slice(150, 330), slice(300, 540))  # a zoom on the target and the person's edge
 
 
-def time_presets(specs: dict[str, tuple[str, str | None]], frames: int,
+VARIANTS = {  # --variants: the same preset with these SensorModel settings, timed in the same interleaved run
+    "sharp": {"blur_max_samples": 1},  # one render a frame, no motion blur: what the light costs at the least
+    "small": {"blur_subframe_scale": 2},  # sub-frames at half size, the middle one's detail added (opt-in)
+}
+
+
+def time_presets(specs: dict[str, tuple], frames: int,
                  supersample: int = 1) -> tuple[dict[str, dict], dict[str, dict[int, np.ndarray]]]:
-    """Median / p95 / mean ms of the RGB frame through each camera of `specs` (name: (preset, blur), blur None for
-    the preset's own; SensorModel.blur) over the first `frames` frames of walk_by, hand-held, seed 0, all timed
+    """Median / p95 / mean ms of the RGB frame through each camera of `specs` (name: (preset, blur) or (preset, blur,
+    {setting: value}), blur None for the preset's own; SensorModel.blur; the settings replace the preset's) over the first `frames` frames of walk_by, hand-held, seed 0, all timed
     INTERLEAVED: frame k of every camera in turn (the order rotated each frame), so that a busy or drifting machine
     slows them alike and their ratios hold in one run. With an `ideal` among them, each row has its whole frame's
     ratio to ideal's: of the means, and the median of the frame-by-frame ratios."""
     renderers, rows = {}, {}
-    for name, (preset, blur) in specs.items():
-        sensor = sensor_preset(preset) if blur is None else sensor_preset(preset, blur=blur)
+    for name, (preset, blur, *settings) in specs.items():
+        sensor = sensor_preset(preset, **({} if blur is None else {"blur": blur}), **(settings[0] if settings else {}))
         scene = Scene(make_scenario("walk_by", mount="handheld",
                                     camera=CameraConfig(sensor=sensor, supersample=supersample)))
         renderers[name] = Renderer(scene)
@@ -117,6 +125,8 @@ def main() -> None:
     ap.add_argument("--presets", nargs="+", default=list(SENSOR_NAMES), choices=SENSOR_NAMES)
     ap.add_argument("--blur", nargs="+", default=list(BLUR_MODES), choices=BLUR_MODES,
                     help="motion blur ways to time each preset with (the first is the default's row)")
+    ap.add_argument("--variants", nargs="*", default=[], choices=list(VARIANTS),
+                    help="also time each realistic preset with these settings (VARIANTS), in the same run")
     ap.add_argument("--no-mounts", action="store_true", help="only the presets (not the mounts with and without shadows)")
     ap.add_argument("--supersample", type=int, nargs="*", default=[], choices=[k for k in SUPERSAMPLE_CHOICES if k > 1],
                     help="also time the presets supersampled k×k (their first blur way)")
@@ -127,6 +137,8 @@ def main() -> None:
     for preset in args.presets:
         for k, blur in enumerate(args.blur if preset != "ideal" else args.blur[:1]):
             specs[preset if k == 0 else f"{preset}:{blur}"] = (preset, blur)
+        for v in args.variants if preset != "ideal" else []:
+            specs[f"{preset}:{v}"] = (preset, args.blur[0], VARIANTS[v])
     out["camera_presets"], got = time_presets(specs, args.frames)
     kept = {preset: got[preset] for preset in args.presets}
     out["load_average_at_end"] = list(os.getloadavg())

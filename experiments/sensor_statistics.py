@@ -9,7 +9,8 @@ to compare (issue 56: the sensor made cheaper must keep its statistics):
     python experiments/sensor_statistics.py --label after --before /tmp/before/stats.json \
         --before-frames /tmp/before/frames.npz --out experiments/results/sensor_statistics
 
-The script reads the public API only (present in both), so the same file measures either package. With --out it
+The script reads the public API only (present in both), so the same file measures either package. `--subframe-scale 2`
+takes `phone_handheld` with `SensorModel.blur_subframe_scale` 2 (the half-size sub-frames; this package only). With --out it
 writes stats.json (both labels and their differences) and statistics.png there.
 """
 
@@ -69,9 +70,15 @@ def edge_profile(frame: np.ndarray) -> list[float]:
     return y[:, col - 12: col + 13].mean(axis=0).round(3).tolist()
 
 
-def walk_by_run() -> tuple[np.ndarray, dict]:
+def phone(subframe_scale: int | None = None):
+    """The `phone_handheld` camera: the preset's name, or the preset with blur_subframe_scale replaced."""
+    return "phone_handheld" if subframe_scale is None else sensor_preset("phone_handheld",
+                                                                         blur_subframe_scale=subframe_scale)
+
+
+def walk_by_run(subframe_scale: int | None = None) -> tuple[np.ndarray, dict]:
     """RUN_FRAMES frames of walk_by hand-held through phone_handheld, and figures of them."""
-    r = Renderer(Scene(make_scenario("walk_by", mount="handheld", camera=CameraConfig(sensor="phone_handheld"))))
+    r = Renderer(Scene(make_scenario("walk_by", mount="handheld", camera=CameraConfig(sensor=phone(subframe_scale)))))
     frames, samples, lights = [], [], []
     for _ in range(RUN_FRAMES):
         frames.append(r.rgb())
@@ -88,12 +95,12 @@ def walk_by_run() -> tuple[np.ndarray, dict]:
     }
 
 
-def hybrid_error() -> dict:
+def hybrid_error(subframe_scale: int | None = None) -> dict:
     from hvs_sim.bench.sequences import make_sequence
     from hvs_sim.bench.track import run_tracker
 
     seq = make_sequence(make_scenario("walk_by", mount="handheld", seed=100,
-                                      camera=CameraConfig(sensor="phone_handheld")), n_frames=TRACK_FRAMES)
+                                      camera=CameraConfig(sensor=phone(subframe_scale))), n_frames=TRACK_FRAMES)
     err = run_tracker("hybrid", seq)["error"][1:]
     return {"frames": len(err), "median_px": float(np.median(err)), "mean_px": float(np.mean(err)),
             "within_2px": float(np.mean(err <= 2.0)), "error_px": err.round(4).tolist()}
@@ -164,9 +171,10 @@ def main() -> None:
     ap.add_argument("--before", help="an earlier run's --json, to compare with")
     ap.add_argument("--before-frames", help="an earlier run's --frames-npz")
     ap.add_argument("--out", help="folder for stats.json and statistics.png (with --before)")
+    ap.add_argument("--subframe-scale", type=int, help="phone_handheld's blur_subframe_scale (default: the preset's)")
     args = ap.parse_args()
-    frames, run = walk_by_run()
-    res = {"label": args.label, "noise": noise_by_level(), "run": run, "track": hybrid_error()}
+    frames, run = walk_by_run(args.subframe_scale)
+    res = {"label": args.label, "noise": noise_by_level(), "run": run, "track": hybrid_error(args.subframe_scale)}
     if args.json:
         Path(args.json).write_text(json.dumps(res, indent=2))
     if args.frames_npz:

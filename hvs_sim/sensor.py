@@ -46,6 +46,9 @@ AE_METER_SIGMA = 0.35  # centre weighting of the meter, as a fraction of the ima
 LINEAR_LEVELS = 4096  # 12-bit linear quantisation before the sRGB curve (a real ADC's depth)
 BLUR_STEP_PX = 1.5  # at most this much image motion between two sub-frame renders (or field taps) of one exposure
 BLUR_MODES = ("subframes", "field")  # SensorModel.blur, the default first
+SUBFRAME_SCALE_MAX = 4  # SensorModel.blur_subframe_scale: smaller renders than 1/4 the size keep too little of the light
+SUBFRAME_SMALL_MIN = 3  # ... and only from this many sub-frames: the small path renders the middle one twice (full and
+# small), and at 2 sub-frames that costs about what the 2 full-size renders do (a half-size render ≈ 0.4× a full one)
 FIELD_MAX_TAPS = 32  # field blur: most taps along a pixel's motion (48 px of motion at BLUR_STEP_PX)
 MAX_EXPOSURE_MS = 200.0  # a scenario also caps it at one frame interval (1000 / fps)
 MAX_LENS_RADIUS = 1.0  # distortion must not fold over out to this normalised radius (a 90° diagonal field of view)
@@ -109,6 +112,13 @@ class SensorModel:
         (from its depth, the camera's and the moving bodies' motion, `hvs_sim.render.blur`), taps
         BLUR_STEP_PX apart, at most blur_max_samples. docs/results.md
         ("Motion blur from the motion field") has its error against the reference and its cost.
+    blur_subframe_scale: with "subframes" and at least SUBFRAME_SMALL_MIN sub-frames, every sub-frame is
+        rendered at 1/scale the width and height and the middle one at full size too; the small ones' mean,
+        enlarged, is the exposure's light, plus the middle one's fine detail (full minus its small render)
+        where the sub-frames agree and 1/n of it where the image moves (`hvs_sim.render.blur.combine_subframes`).
+        1 (the default, every preset): every sub-frame a full-size render (the reference). 2 renders a
+        4-sub-frame exposure ~1.3× faster but lengthens the blur (a 7.4 px blur fits an 8.9 px box:
+        docs/results.md, "Small sub-frames"), so it stays opt-in.
     white_e: electrons from a white surface over the exposure (light × exposure × pixel area × QE);
         shot noise has variance = electrons, so fewer electrons mean more noise. inf = no shot noise.
     read_noise_e: read noise, electrons RMS.
@@ -129,6 +139,7 @@ class SensorModel:
     exposure_ms: float = 0.0
     blur_max_samples: int = 1
     blur: str = "subframes"
+    blur_subframe_scale: int = 1
     white_e: float = math.inf
     read_noise_e: float = 0.0
     ae_target: float = 0.0
@@ -154,6 +165,10 @@ class SensorModel:
         if isinstance(self.blur_max_samples, bool) or not isinstance(self.blur_max_samples, (int, np.integer)) \
                 or not 1 <= self.blur_max_samples <= 32:
             raise ConfigError(f"sensor blur_max_samples must be an int in [1, 32], got {self.blur_max_samples!r}")
+        if isinstance(self.blur_subframe_scale, bool) or not isinstance(self.blur_subframe_scale, (int, np.integer)) \
+                or not 1 <= self.blur_subframe_scale <= SUBFRAME_SCALE_MAX:
+            raise ConfigError(f"sensor blur_subframe_scale must be an int in [1, {SUBFRAME_SCALE_MAX}], got "
+                              f"{self.blur_subframe_scale!r}")
         if self.blur not in BLUR_MODES:
             raise choice_error("sensor blur", self.blur, BLUR_MODES)
         if self.blur != BLUR_MODES[0] and self.exposure_ms <= 0:

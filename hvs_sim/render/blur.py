@@ -20,12 +20,17 @@ import cv2
 import numpy as np
 
 from hvs_sim.render.camera import CameraPose, project
-from hvs_sim.sensor import BLUR_STEP_PX, FIELD_MAX_TAPS
+from hvs_sim.sensor import BLUR_STEP_PX, FIELD_MAX_TAPS, LUMA
 
 FIELD_STRIDE = 2  # the paths are found every this many pixels and interpolated between (the field is smooth but at
 # depth edges, where the gather is approximate anyway): a quarter of the arithmetic
 PERSON_PROBE_HEIGHTS = (0.5, 1.2, 1.7)  # m above the feet: points whose image motion sets the blur sampling
 BLUR_PROBE_MARGIN = 0.25  # ... counted while within this fraction of the image size outside the frame
+PERSON_DEPTH_TOL_RAW = 1e-6  # field blur: a pixel is a person's where the people-only render's raw depth is the full
+# render's (the same fragment: the same value, up to this)
+BODY_BOX_MARGIN_M = 0.005  # field blur: a point within this of the moving wall's boxes rides on the wall
+GRADIENT_FLOOR = 0.02  # combine_subframes: linear light per small pixel under which a gradient cannot say how far the
+# image moved (a flat area, where the sub-frames agree anyway and the detail is kept)
 
 
 @dataclass(frozen=True)
@@ -39,6 +44,46 @@ class Rigid:
         T = np.eye(4)
         T[:3, :3], T[:3, 3] = self.R, self.t
         return T
+
+
+def moving_labels(r, raw: np.ndarray, points: np.ndarray, k: int) -> np.ndarray:
+    """uint8 labels of the raw depth `raw` of the Renderer `r`'s last render (every k-th pixel; `points` its
+    camera-frame points): 0 where the pixel shows the still world, j where it shows the j-th of `r`'s moving bodies
+    (the people shown, then the wall if it slides). A person's pixels are those where a people-only render (cheap:
+    few fragments) is as near as the full one; the nearest person's feet (in plan) say whose. The wall's are the
+    points inside its boxes."""
+    scene = r.scene
+    labels = np.zeros(raw.shape, np.uint8)
+    people = [p.body for p in scene.people] if r.people else []
+    pose = r.camera_pose()
+    world = None  # the points in the world, when a test needs them
+    if people:
+        only = r._depth_buffer(r._only_people)[::k, ::k]
+        mine = (only < 1.0) & (only <= raw + PERSON_DEPTH_TOL_RAW)
+        if len(people) == 1:
+            labels[mine] = 1
+        elif np.any(mine):
+            world = points @ pose.R.T + pose.t
+            feet = np.array([scene.physics.bind(b).xpos[:2] for b in people])
+            d = np.linalg.norm(world[mine][:, None, :2] - feet[None], axis=-1)
+            labels[mine] = 1 + np.argmin(d, axis=1).astype(np.uint8)
+    if any(scene.scenario.wall_motion):
+        world = points @ pose.R.T + pose.t if world is None else world
+        lo, hi = wall_box(scene)
+        b = scene.physics.bind(scene.wall.body)
+        local = (world - b.xpos) @ b.xmat.reshape(3, 3)
+        inside = np.all((local >= lo - BODY_BOX_MARGIN_M) & (local <= hi + BODY_BOX_MARGIN_M), axis=-1)
+        labels[inside & (labels == 0)] = len(people) + 1
+    return labels
+
+
+def wall_box(scene) -> tuple[np.ndarray, np.ndarray]:
+    """The wall body's geoms' bounding box in its own frame (they are boxes, not rotated in it)."""
+    m = scene.physics.model
+    body_id = m.name2id(scene.wall.body.full_identifier, "body")  # a mocap body: bind() has no element_id
+    mine = np.asarray(m.geom_bodyid) == body_id
+    pos, size = np.asarray(m.geom_pos)[mine], np.asarray(m.geom_size)[mine]
+    return (pos - size).min(axis=0), (pos + size).max(axis=0)
 
 
 def pixel_rays(K: np.ndarray, width: int, height: int) -> np.ndarray:
@@ -146,3 +191,40 @@ def _probe_points_px(scene, K: np.ndarray, people: bool) -> np.ndarray:
         pts += [pos + R @ np.array([0.0, 0.0, z]) for z in PERSON_PROBE_HEIGHTS]
     position, R_cv = scene.camera_pose_cv()
     return project(K, CameraPose(R_cv, position), np.array(pts))
+
+
+def combine_subframes(full: np.ndarray, small: list[np.ndarray], mid: int) -> np.ndarray:
+    """The mean of n sub-frame renders (H, W, 3 linear float32) from n small renders of them (`small`, each h×w×3, the
+    same view at 1/scale the size) and a full-size render of the `mid`-th (`full`): the small ones' mean enlarged
+    (bilinear, pixel centres aligned), plus α × the middle one's fine detail, `full` − its small render enlarged.
+
+    α says how much of that detail the exposure keeps: 1 where the sub-frames agree (what stands still is exactly
+    `full`, as every sub-frame is then), 1/n where the image moves by more than 2·BLUR_STEP_PX over the exposure (as if
+    every other sub-frame had lost its detail: the blur along the motion removes most of it), and a linear ramp from
+    BLUR_STEP_PX (where the sub-frames would begin) in between. How far the image moves is the small renders' largest
+    difference from the middle one over the luma gradient there (the motion across the edge, which is what blurs
+    it, in full-size pixels; the farthest sub-frame is about half the exposure's path away), both averaged over 3×3
+    small pixels. An edge along the motion changes little between sub-frames and keeps its detail. The result is
+    clipped to [0, 1], the range of every render's light."""
+    n, (h, w), (H, W) = len(small), small[0].shape[:2], full.shape[:2]
+    mean = small[0].copy()
+    for s in small[1:]:
+        cv2.add(mean, s, dst=mean)
+    mean *= np.float32(1.0 / n)
+    out = cv2.resize(mean, (W, H), interpolation=cv2.INTER_LINEAR)
+    detail = cv2.subtract(full, cv2.resize(small[mid], (W, H), interpolation=cv2.INTER_LINEAR))
+    luma = [cv2.transform(s, LUMA.reshape(1, 3)) for s in small]
+    gx = cv2.Sobel(luma[mid], cv2.CV_32F, 1, 0, ksize=3, scale=0.125)  # linear light per small pixel
+    gy = cv2.Sobel(luma[mid], cv2.CV_32F, 0, 1, ksize=3, scale=0.125)
+    grad = cv2.blur(cv2.magnitude(gx, gy), (3, 3))
+    change = np.zeros((h, w), np.float32)
+    for k, lum in enumerate(luma):
+        if k != mid:
+            cv2.max(change, cv2.absdiff(lum, luma[mid]), dst=change)
+    path = cv2.blur(change, (3, 3)) / np.maximum(grad, np.float32(GRADIENT_FLOOR)) * np.float32(2.0 * W / w)  # full-size px
+    ramp = np.clip((path - BLUR_STEP_PX) / BLUR_STEP_PX, 0.0, 1.0)
+    alpha = cv2.resize(np.float32(1.0) - np.float32(1.0 - 1.0 / n) * ramp, (W, H), interpolation=cv2.INTER_LINEAR)
+    cv2.multiply(detail, cv2.merge([alpha, alpha, alpha]), dst=detail)
+    cv2.add(out, detail, dst=out)
+    return np.clip(out, 0.0, 1.0, out=out)  # the detail of a thin line the small renders miss can overshoot: light is
+    # in [0, 1], as every sub-frame's is

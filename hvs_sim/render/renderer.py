@@ -22,9 +22,11 @@ from hvs_sim.render.blur import (
     Rigid,
     blur_along_paths,
     camera_motion,
+    combine_subframes,
     displacement,
     exposure_motion_px,
     motion_paths,
+    moving_labels,
     pixel_rays,
     taps_for,
 )
@@ -34,6 +36,7 @@ from hvs_sim.scene.parts import OCCLUDER_GROUP, TARGET_GROUP
 from hvs_sim.scene.world import Scene
 from hvs_sim.sensor import (
     STILL_STREAM,
+    SUBFRAME_SMALL_MIN,
     SensorModel,
     SensorState,
     decode,
@@ -45,9 +48,6 @@ from hvs_sim.sensor import (
 from hvs_sim.validate import check_number
 
 MAX_STILL_FRAMES = 256  # still_average: more frames than a user would grab at the goal
-PERSON_DEPTH_TOL_RAW = 1e-6  # field blur: a pixel is a person's where the people-only render's raw depth is the full
-# render's (the same fragment: the same value, up to this)
-BODY_BOX_MARGIN_M = 0.005  # field blur: a point within this of the moving wall's boxes rides on the wall
 
 
 SCENE_VIEW_AZIMUTH_DEG = 50.0  # the third-person view looks past the arm's side at the wall ...
@@ -99,6 +99,7 @@ class Renderer:
         self.stage_ms: dict[str, float] = {}  # the last new frame's ms per stage (rgb)
         self.supersample = cam.supersample
         self._cam_ss: engine.Camera | None = None  # the colour renders at supersample× the size (supersample > 1)
+        self._cam_small: engine.Camera | None = None  # sub-frames at 1/blur_subframe_scale the size (_small_subframes)
 
     @staticmethod
     def intrinsics_of(scenario) -> np.ndarray:
@@ -194,20 +195,45 @@ class Renderer:
             return linear
         offsets = self.sensor.exposure_offsets(samples)
         self.blur_samples = len(offsets)
-        linear = None  # type: ignore[assignment]  # the first sub-frame's render replaces it
-        try:
-            for dt in offsets:
-                with scene.rewound(float(dt)):
-                    self._set_lights(scene.time - float(dt))
-                    sub = self._render_linear()
-                linear = sub if linear is None else cv2.add(linear, sub, dst=linear)
-        finally:
-            self._set_lights(None)
-        if len(offsets) > 1:
-            linear /= np.float32(len(offsets))
+        if len(offsets) >= SUBFRAME_SMALL_MIN and self.sensor.blur_subframe_scale > 1 and self.supersample == 1:
+            linear = self._small_subframes(offsets)
+        else:
+            linear = None  # type: ignore[assignment]  # the first sub-frame's render replaces it
+            try:
+                for dt in offsets:
+                    with scene.rewound(float(dt)):
+                        self._set_lights(scene.time - float(dt))
+                        sub = self._render_linear()
+                    linear = sub if linear is None else cv2.add(linear, sub, dst=linear)
+            finally:
+                self._set_lights(None)
+            if len(offsets) > 1:
+                linear /= np.float32(len(offsets))
         if self._maps is not None:
             linear = cv2.remap(linear, *self._maps, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         return linear
+
+    def _small_subframes(self, offsets: np.ndarray) -> np.ndarray:
+        """The exposure from sub-frames rendered at 1/blur_subframe_scale the size, the middle one at full size too
+        (`blur.combine_subframes`; SensorModel.blur_subframe_scale)."""
+        scene, scale = self.scene, self.sensor.blur_subframe_scale
+        if self._cam_small is None:
+            note_rendering()
+            self._cam_small = engine.Camera(self.scene.physics, max(1, round(self.height / scale)),
+                                            max(1, round(self.width / scale)), self._camera_id)
+        option = self._show_people if self.people else self._hide_people
+        mid, small = len(offsets) // 2, []
+        full = None
+        try:
+            for j, dt in enumerate(offsets):
+                with scene.rewound(float(dt)):
+                    self._set_lights(scene.time - float(dt))
+                    small.append(decode(self._cam_small.render(scene_option=option)))
+                    if j == mid:
+                        full = decode(self._render())
+        finally:
+            self._set_lights(None)
+        return combine_subframes(full, small, mid)  # type: ignore[arg-type]  # set at j == mid
 
     def _field_exposure(self) -> np.ndarray:
         """The exposure as one render at its middle, blurred along each pixel's image motion (`render.blur`)."""
@@ -218,7 +244,7 @@ class Renderer:
                 linear = decode(self._render())
                 raw = self._depth_buffer()[::k, ::k]  # of the render just made: no second render
                 points = self._field_rays() * self._metres(raw)[..., None]  # camera frame, every k-th pixel
-                labels = self._moving_labels(raw, points, k)
+                labels = moving_labels(self, raw, points, k)
                 cam_mid, bodies_mid = self._poses()
         finally:
             self._set_lights(None)
@@ -288,47 +314,11 @@ class Renderer:
         bodies = [Rigid(bind(b).xmat.reshape(3, 3).copy(), bind(b).xpos.copy()) for b in self._moving_bodies()]
         return Rigid(pose.R, pose.t), bodies
 
-    def _moving_labels(self, raw: np.ndarray, points: np.ndarray, k: int) -> np.ndarray:
-        """uint8 labels of the raw depth `raw` (the render's, every k-th pixel; `points` its camera-frame points): 0
-        where the pixel shows the still world, j where it shows the j-th `_moving_bodies` body. A person's pixels are
-        those where a people-only render (cheap: few fragments) is as near as the full one; the nearest person's feet
-        (in plan) say whose. The wall's are the points inside its boxes."""
-        labels = np.zeros(raw.shape, np.uint8)
-        people = [p.body for p in self.scene.people] if self.people else []
-        pose = self.camera_pose()
-        world = None  # the points in the world, when a test needs them
-        if people:
-            only = self._depth_buffer(self._only_people)[::k, ::k]
-            mine = (only < 1.0) & (only <= raw + PERSON_DEPTH_TOL_RAW)
-            if len(people) == 1:
-                labels[mine] = 1
-            elif np.any(mine):
-                world = points @ pose.R.T + pose.t
-                feet = np.array([self.scene.physics.bind(b).xpos[:2] for b in people])
-                d = np.linalg.norm(world[mine][:, None, :2] - feet[None], axis=-1)
-                labels[mine] = 1 + np.argmin(d, axis=1).astype(np.uint8)
-        if any(self.scene.scenario.wall_motion):
-            world = points @ pose.R.T + pose.t if world is None else world
-            lo, hi = self._wall_box()
-            b = self.scene.physics.bind(self.scene.wall.body)
-            local = (world - b.xpos) @ b.xmat.reshape(3, 3)
-            inside = np.all((local >= lo - BODY_BOX_MARGIN_M) & (local <= hi + BODY_BOX_MARGIN_M), axis=-1)
-            labels[inside & (labels == 0)] = len(people) + 1
-        return labels
-
     def _field_rays(self) -> np.ndarray:
         """The rays of every FIELD_STRIDE-th pixel (made at the first blurred frame)."""
         if self._rays is None:
             self._rays = pixel_rays(self.K, self.width, self.height)[::FIELD_STRIDE, ::FIELD_STRIDE].copy()
         return self._rays
-
-    def _wall_box(self) -> tuple[np.ndarray, np.ndarray]:
-        """The wall body's geoms' bounding box in its own frame (they are boxes, not rotated in it)."""
-        m = self.scene.physics.model
-        body_id = m.name2id(self.scene.wall.body.full_identifier, "body")  # a mocap body: bind() has no element_id
-        mine = np.asarray(m.geom_bodyid) == body_id
-        pos, size = np.asarray(m.geom_pos)[mine], np.asarray(m.geom_size)[mine]
-        return (pos - size).min(axis=0), (pos + size).max(axis=0)
 
     def still_average(self, n: int) -> np.ndarray:
         """The mean of `n` frames of the scene held still (uint8 RGB), as a user teaching a goal image grabs a
