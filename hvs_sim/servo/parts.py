@@ -59,7 +59,7 @@ class ResolvedLoop:
 
 @dataclass
 class Capture:
-    """What a step reads from the scene at its state (ServoLoop._capture)."""
+    """What a step reads from the scene at its state (servo/step.py: capture)."""
 
     frame: np.ndarray | None  # None when nothing reads the frames (ServoLoop.renders_frames)
     gt: GroundTruth
@@ -84,7 +84,7 @@ class Template:
 
 @dataclass
 class Episode:
-    """What step 0 fixes for the episode (ServoLoop._step_zero; the template's fields change once, at the switch to
+    """What step 0 fixes for the episode (ServoLoop.step_zero; the template's fields change once, at the switch to
     near_goal), and what is carried from step to step."""
 
     flag0: np.ndarray  # the target's corners in the template's image
