@@ -13,24 +13,21 @@ import numpy as np
 import torch
 
 from hvs_sim import plugins
-from hvs_sim.control.arm import ArmDriver, JointCommand
+from hvs_sim.control.arm import JointCommand
 from hvs_sim.control.feature_filter import FeatureFilter
 from hvs_sim.control.ibvs import CONTROLLERS, DOF_NAMES, ControlOutput, IBVSController, bound_twist
 from hvs_sim.control.pbvs import PBVSController
 from hvs_sim.control.protocol import ControlInput, PolicyInput, scale_depths
 from hvs_sim.control.safety import Envelope, SafetyGate
 from hvs_sim.errors import ConfigError, HvsError, StateError
-from hvs_sim.render.camera import CameraPose
-from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import Scenario
-from hvs_sim.scene.world import Scene
 from hvs_sim.sensor import distort_points, undistort_points
 from hvs_sim.servo.config import LoopConfig
 from hvs_sim.servo.parts import Capture, Episode, Measured, frozen
 from hvs_sim.servo.plan import check_combination, loop_tracker, resolve
 from hvs_sim.servo.records import StepRecord
 from hvs_sim.servo.step import pipelined, sequential
-from hvs_sim.servo.teach import check_start_in_view
+from hvs_sim.servo.task import Observation, ServoTask
 from hvs_sim.servo.templates import TemplateSchedule
 from hvs_sim.tracking import Track, make_tracker
 from hvs_sim.tracking.warp import perspective_transform
@@ -58,14 +55,11 @@ class ServoLoop:
         # what a law's failure may raise and the run records as a fault: the built-ins raise HvsError (PBVS on a
         # degenerate quad); an outside method anything
         self._law_errors = Exception if self.law is not None or self.policy is not None else HvsError
-        self.scene = Scene(scenario)
-        self.renderer = Renderer(self.scene)
-        self.arm = ArmDriver(self.scene)
-        # desired flag corners: the target seen from the reference pose (centred, at the standoff)
-        ref_pos, ref_R = self.scene.reference_pose()
-        self.flag_desired = self.renderer.project(CameraPose(ref_R, ref_pos), self.scene.target_corners_world())
+        self.task = ServoTask(scenario)  # the world this agent steps: scene, renderer, arm, s*, metrics
+        self.task.reset()  # ConfigError when the target is not fully in view from the start
+        self.scene, self.renderer, self.arm = self.task.scene, self.task.renderer, self.task.arm
+        self.flag_desired = self.task.desired  # the target's corners seen from the reference pose
         self.desired_depth = float(scenario.standoff)
-        check_start_in_view(self.scene, self.renderer)
         self.templates = TemplateSchedule(self.scene, self.renderer, config, self.resolved, tracker, self.tracker,
                                           near_goal_tracker, self.flag_desired)
         self.ibvs_config = dataclasses.replace(config.ibvs, damping=self.resolved.damping)
@@ -144,8 +138,8 @@ class ServoLoop:
                             dt=1.0 / self.scenario.fps, image=frozen(frame) if reads_images else None,
                             goal_image=frozen(goal) if reads_images else None, step=step)
 
-    def _policy_input(self, frame, gt, goal, desired_px, step) -> PolicyInput:
-        return PolicyInput(image=frozen(frame), joints=frozen(gt.joint_positions), goal_image=frozen(goal),
+    def _policy_input(self, obs: Observation, goal, desired_px, step) -> PolicyInput:
+        return PolicyInput(image=frozen(obs.frame), joints=frozen(obs.joints), goal_image=frozen(goal),
                            K=frozen(self.renderer.K), desired_px=frozen(self._pinhole(desired_px)),
                            dt=1.0 / self.scenario.fps, step=step)
 
@@ -185,7 +179,7 @@ class ServoLoop:
         controller = self._controller(self._pinhole(t.desired), goal, t.roi)
         if self.policy is not None:
             try:
-                self.policy.reset(self._policy_input(cap.frame, cap.gt, goal, t.desired, 0))
+                self.policy.reset(self._policy_input(cap.obs, goal, t.desired, 0))
             except Exception as exc:  # outside code: the run cannot start, and says why
                 raise StateError(f"policy {self.config.policy!r} failed in reset(): {type(exc).__name__}: {exc}") \
                     from exc
@@ -201,7 +195,7 @@ class ServoLoop:
         cam, safety = self.scenario.camera, self.config.safety
         ep.gate = SafetyGate(safety, self.scenario.fps, ep.desired, cam.width, cam.height)
         goal_pos, goal_R = self.scene.reference_pose()
-        ep.envelope = Envelope(safety, cap.gt.camera.t, cap.gt.camera.R, goal_pos, goal_R)
+        ep.envelope = Envelope(safety, cap.obs.camera.t, cap.obs.camera.R, goal_pos, goal_R)
         ep.carrier = self._carrier(ep.desired) if self.tracker is not None else None
 
     def _carrier(self, desired: np.ndarray) -> FeatureFilter:
@@ -241,14 +235,14 @@ class ServoLoop:
             raise StateError(f"tracker {self.tracker_name!r} could not start on {where} (template ROI {ep.roi}): "
                              f"{exc}") from exc
 
-    def control(self, ep: Episode, cap: Capture, seen: Measured,
+    def control(self, ep: Episode, obs: Observation, depths: np.ndarray | None, seen: Measured,
                 step: int) -> tuple[Measured, ControlOutput | None, JointCommand]:
         """The law's (or policy's) twist on the step's features, through the feature filter, as joint velocities at
         the arm's configuration now. A fault (the tracker's, or the law's) gives a zero twist: the arm holds."""
         features, mode, fault = seen.features, seen.mode, seen.fault
         ctrl = None
         control_px = self._pinhole(features) if fault is None else features
-        camera, prev = cap.gt.camera, ep.camera_prev
+        camera, prev = obs.camera, ep.camera_prev
         motion = np.eye(4) if prev is None else np.linalg.solve(prev.matrix(), camera.matrix())
         ep.camera_prev = camera
         if ep.feature_filter is not None:  # the camera's pose from the joints' forward kinematics, as ArmDriver reads it
@@ -260,10 +254,9 @@ class ServoLoop:
             # like a tracker fault, stop the arm and record it
             try:
                 if self.policy is not None:
-                    ctrl = self._bounded(self.policy.act(self._policy_input(cap.frame, cap.gt, ep.goal, ep.desired,
-                                                                            step)), self.dofs)
+                    ctrl = self._bounded(self.policy.act(self._policy_input(obs, ep.goal, ep.desired, step)), self.dofs)
                 else:
-                    inp = self._control_input(control_px, ep.desired, cap.depths, mode, motion, cap.frame, ep.goal, step)
+                    inp = self._control_input(control_px, ep.desired, depths, mode, motion, obs.frame, ep.goal, step)
                     ctrl = ep.controller.compute(inp)
                     if self.law is not None:  # (twist, dofs): bounded as the built-in laws bound theirs
                         ctrl = self._bounded(ctrl[0], ctrl[1] or self.dofs)
@@ -271,13 +264,13 @@ class ServoLoop:
                 fault, mode = f"{type(exc).__name__}: {exc}", "fault"
                 if ep.feature_filter is not None:  # a faulty frame clears the filter, as a tracker fault does
                     ep.feature_filter.reset()
-        twist = self._safe_twist(ep, cap, seen, ctrl, fault)
+        twist = self._safe_twist(ep, obs, seen, ctrl, fault)
         if ctrl is not None:
             ctrl = dataclasses.replace(ctrl, twist=twist)
         cmd = self.arm.command(twist)
         return dataclasses.replace(seen, features=features, mode=mode, fault=fault), ctrl, cmd
 
-    def _safe_twist(self, ep: Episode, cap: Capture, seen: Measured, ctrl: ControlOutput | None,
+    def _safe_twist(self, ep: Episode, obs: Observation, seen: Measured, ctrl: ControlOutput | None,
                     fault: str | None) -> np.ndarray:
         """The law's twist through the safety rule (control/safety.py): the gate judges the tracker's own corners
         (not the filtered ones) and holds the arm while it does not see; a twist that would carry the camera out of
@@ -286,15 +279,15 @@ class ServoLoop:
         if self.tracker is not None and seen.fault is None:
             px = seen.tracked
             pinhole = self._pinhole(px)
-            carried = ep.carrier.predict(cap.gt.camera) if ep.carrier.state is not None else None
+            carried = ep.carrier.predict(obs.camera) if ep.carrier.state is not None else None
             jump = None if carried is None else float(np.linalg.norm(pinhole - carried, axis=1).max())
-            ep.carrier.update(pinhole, cap.gt.camera, usable=seen.mode != "lost")
+            ep.carrier.update(pinhole, obs.camera, usable=seen.mode != "lost")
         confidence = seen.track.confidence if seen.track is not None else None
         ep.held_because = ep.gate.update(px, seen.mode, confidence, fault is not None, jump)
         twist = ep.gate.twist(ctrl.twist if ctrl is not None else None)
         if not np.any(twist):
             return twist
-        ep.aborted = ep.envelope.check(cap.gt.camera.t, cap.gt.camera.R, twist, 1.0 / self.scenario.fps)
+        ep.aborted = ep.envelope.check(obs.camera.t, obs.camera.R, twist, 1.0 / self.scenario.fps)
         if ep.aborted is not None:
             return np.zeros(6)
         return twist

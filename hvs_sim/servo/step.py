@@ -29,11 +29,11 @@ def sequential(loop) -> Iterator[StepRecord]:
     for step in range(loop.config.steps):
         timings, watch = dict(cap.timings), Stopwatch()
         truth, first = begin(loop, ep, cap, step)
-        seen = measure(loop, truth, cap.frame, first)
+        seen = measure(loop, truth, cap.obs.frame, first)
         timings["track"] = watch.ms()
         seen, ctrl, cmd = act(loop, ep, cap, seen, step, timings, cap.depths_ms)
         with lap(timings, "physics"):
-            loop.scene.advance(cmd.qdot)
+            loop.task.advance(cmd.qdot)
         yield record(loop, step, cap, ep, seen, ctrl, cmd, timings, wall_ms=wall.lap())
         if ep.aborted is not None:
             return
@@ -52,12 +52,12 @@ def pipelined(loop, pool: ThreadPoolExecutor) -> Iterator[StepRecord]:
     for step in range(loop.config.steps):
         watch = Stopwatch()
         truth, first = begin(loop, ep, cap, step)  # no track is in flight between steps: the switch may happen here
-        pending = pool.submit(track, loop, cap.frame, first) if loop.tracker is not None else None
+        pending = pool.submit(track, loop, cap.obs.frame, first) if loop.tracker is not None else None
         init_ms = watch.ms()
         timings, nxt, depths_ms = dict.fromkeys(PIPELINE_IDLE, 0.0), None, 0.0
         if step + 1 < loop.config.steps:  # meanwhile: physics with the command due, then the next frame
             with lap(timings, "physics"):
-                loop.scene.advance(qdot_due)
+                loop.task.advance(qdot_due)
             nxt = capture(loop)
             timings.update(nxt.timings)
             depths_ms = nxt.depths_ms
@@ -75,7 +75,7 @@ def begin(loop, ep: Episode, cap: Capture, step: int) -> tuple[np.ndarray, Track
     true corners carried into the template's box), and at step 0 the tracker's start (its own first track, if any)."""
     if ep.grow_from is not None:
         loop.switch_to_near_goal(ep, step)
-    truth = loop.renderer.transfer(ep.flag0, cap.gt.corners, ep.roi0)
+    truth = loop.renderer.transfer(ep.flag0, cap.truth.corners, ep.roi0)
     return truth, (loop.start_tracker(ep, truth) if step == 0 else None)
 
 
@@ -84,7 +84,7 @@ def act(loop, ep: Episode, cap: Capture, seen: Measured, step: int, timings: dic
     """Control on the step's features (the true depths' time counted as control), then whether the near-goal switch
     is due."""
     with lap(timings, "control"):
-        seen, ctrl, cmd = loop.control(ep, cap, seen, step)
+        seen, ctrl, cmd = loop.control(ep, cap.obs, cap.depths, seen, step)  # the truth stays here
         loop.templates.due(ep, seen)
     timings["control"] += depths_ms
     return seen, ctrl, cmd
@@ -92,16 +92,15 @@ def act(loop, ep: Episode, cap: Capture, seen: Measured, step: int, timings: dic
 
 def capture(loop) -> Capture:
     """Everything a step reads from the scene at its state: the frame and the truth that grades it."""
-    r, scene, timings = loop.renderer, loop.scene, {}
+    task, timings = loop.task, {}
     with lap(timings, "render"):
-        frame = r.rgb() if loop.renders_frames else None
+        obs = task.observe(frame=loop.renders_frames)
     with lap(timings, "ground_truth"):
-        gt = r.ground_truth(occlusion=loop.config.evaluate, counts=False)
+        truth = task.truth(occlusion=loop.config.evaluate)
     watch = Stopwatch()
     depths = loop.true_depths() if loop.ibvs_config.depth == "true" else None  # only when asked
     depths_ms = watch.ms()
-    return Capture(frame, gt, scene.time, scene.pose_error(), scene.people_poses(), scene.arm_poses(), depths,
-                   timings, depths_ms)
+    return Capture(obs, truth, task.scene.people_poses(), task.scene.arm_poses(), depths, timings, depths_ms)
 
 
 def track(loop, frame: np.ndarray, first: Track | None) -> Track:
@@ -129,22 +128,22 @@ def measure(loop, truth: np.ndarray, frame: np.ndarray | None = None, first: Tra
 def record(loop, step: int, cap: Capture, ep: Episode, seen: Measured, ctrl, cmd: JointCommand,
            timings: dict[str, float], wall_ms: float | None = None) -> StepRecord:
     """The step as logged and graded: what the loop did, beside the truth it did not see."""
-    gt, truth, res = cap.gt, seen.truth, loop.resolved
+    obs, truth, res = cap.obs, seen.truth, loop.resolved
     twist, gain, sat, sv = ((ctrl.twist, ctrl.gain, ctrl.saturated, ctrl.singular_values) if ctrl is not None
                             else (np.zeros(6), 0.0, False, np.zeros(0)))
     graded = seen.fault is None and (loop.tracker is not None or loop.oracle)
     return StepRecord(
-        step=step, time=cap.time, frame=cap.frame if loop.config.keep_frames else None, track=seen.track,
+        step=step, time=obs.time, frame=obs.frame if loop.config.keep_frames else None, track=seen.track,
         mode=seen.mode, features=seen.features, gt_features=truth, desired=ep.desired,
         error_px=float(np.linalg.norm(truth - ep.desired, axis=1).mean()),
         tracker_error_px=float(np.linalg.norm(seen.tracked - truth, axis=1).mean()) if graded else float("nan"),
-        occlusion=gt.occlusion, twist=twist, qdot=cmd.qdot, q=gt.joint_positions, camera=gt.camera, gain=gain,
+        occlusion=cap.truth.occlusion, twist=twist, qdot=cmd.qdot, q=obs.joints, camera=obs.camera, gain=gain,
         saturated=sat or cmd.velocity_saturated, limit_blocked=cmd.limit_blocked, fault=seen.fault,
-        timings=timings, pose_error=cap.pose_error, singular_values=sv,
+        timings=timings, pose_error=cap.truth.pose_error, singular_values=sv,
         dofs=(ctrl.dofs or res.dofs) if ctrl is not None else res.dofs, damping=loop.ibvs_config.damping,
         feature_filter=res.filter_alpha,
         filter_restarted=ep.feature_filter is not None and ep.feature_filter.restarted,
         template=(res.template_from, int(ep.inset), res.goal_frames),
-        target_in_view=corners_in_view(gt.corners, loop.scenario.camera),
-        controlled_pose_error=loop.controlled_pose_error(cap.pose_error), people=cap.people, arm=cap.arm,
+        target_in_view=corners_in_view(cap.truth.corners, loop.scenario.camera),
+        controlled_pose_error=loop.controlled_pose_error(cap.truth.pose_error), people=cap.people, arm=cap.arm,
         wall_ms=wall_ms, held_because=ep.held_because, aborted=ep.aborted)

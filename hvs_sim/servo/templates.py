@@ -45,7 +45,8 @@ class TemplateSchedule:
         its image, the grown near-goal template or None). InputError when a grown box runs off the goal image."""
         res = self.resolved
         # the template's image and the target's corners in it: this first frame, or the goal image
-        template_frame, flag0 = (cap.frame, cap.gt.corners) if res.template_from == "start" else self.goal_image()
+        template_frame, flag0 = (cap.obs.frame, cap.truth.corners) if res.template_from == "start" \
+            else self.goal_image()
         goal = None if res.template_from == "start" else template_frame
         outline = roi_from_corners(flag0)
         inset = self.default_inset(outline) if res.roi_inset_px is None else res.roi_inset_px
