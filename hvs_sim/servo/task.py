@@ -96,13 +96,18 @@ class ServoTask:
         """One physics step with the joints at these velocities (rad/s)."""
         self._live()[0].advance(qdot)
 
-    def step(self, twist: np.ndarray | None = None, qdot: np.ndarray | None = None,
-             frame: bool = True) -> tuple[Observation, Truth]:
-        """One step: a camera twist (through the arm's driver) or joint velocities, then what follows from it."""
+    def step(self, twist: np.ndarray | None = None, qdot: np.ndarray | None = None, frame: bool = True,
+             occlusion: bool = True, counts: bool = False) -> tuple[Observation, Truth]:
+        """One step: a camera twist (through the arm's driver) or joint velocities, then what follows from it (the
+        frame, the occlusion and its counts as observe and truth take them)."""
         if (twist is None) == (qdot is None):
             raise InputError("give the step a twist or joint velocities (qdot), one of them")
         self.advance(self.command(twist).qdot if twist is not None else qdot)
-        return self.observe(frame), self.truth()
+        return self.observe(frame), self.truth(occlusion, counts)
+
+    def close(self) -> None:
+        """Let the scene, its model and its rendering context go (a later reset builds them again)."""
+        self.scene = self.renderer = self.arm = self._compiled = None
 
     def goal_image(self, frames: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(image, target corners) with the camera at the reference pose and the people left out (servo/teach.py):
