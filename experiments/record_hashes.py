@@ -5,8 +5,9 @@
 
 The episodes cover the loop's paths: ground-truth IBVS; the hybrid on six DOF with a goal template, the near-goal
 switch and the feature filter through a walk-by (prediction, the safety rule's hold); PBVS; the pipelined loop; an
-outside tracker (the test package's KLT, when installed). The gym env's episodes (`env_*`) hash each step's
-observation, reward, termination and info over two seeded resets (the second restarts the compiled model). Timings and wall times are left out (they are the
+outside tracker (the test package's KLT, when installed); photometric servoing; an outside law and an outside policy
+(the test package's). The gym env's episodes (`env_*`) hash each step's observation, reward, termination and info over
+two seeded resets (the second restarts the compiled model). Timings and wall times are left out (they are the
 machine's); everything else a StepRecord holds is hashed, floats by their bytes.
 """
 
@@ -33,6 +34,9 @@ EPISODES = {  # name: (scenario, tracker, loop settings, steps)
     "hybrid_6dof_pbvs": ("clear", "hybrid", {"warp": "homography", "controller": "pbvs"}, 60),
     "hybrid_pipelined": ("pause", "hybrid", {"warp": "homography", "pipeline": True}, 120),
     "klt_start_template": ("clear", "hvs_test_plugins.track:make", {"template_from": "start"}, 40),
+    "dvs_on_the_images": ("clear", "none", {"controller": "dvs"}, 40),
+    "outside_law": ("clear", "hybrid", {"warp": "homography", "controller": "hvs_test_plugins.law:make"}, 40),
+    "outside_policy": ("clear", "none", {"policy": "hvs_test_plugins.policy:make"}, 30),
 }
 TRACKER_KEYS = {"warp"}
 ENV_EPISODES = {  # name: (env keywords, steps per reset); actions: the IBVS expert on the truth, or seeded draws
