@@ -1,8 +1,9 @@
 """The closed loop, in parts: `config` (LoopConfig), `plan` (the rules and the settings resolved once), `teach` (goal
 image, template box, near-goal growth), `parts` (what a step carries; Observation, Truth), `task` (ServoTask, the world
 the loop and the gym env step), `templates` (the start and near-goal templates), `step` (one step, its two drivers),
-`tracked` (a tracker's corners as an observation), `records` (StepRecord, RunStats) and `loop` (ServoLoop, the agent).
-The names a user reaches for load on first use: `import hvs_sim.servo` stays cheap."""
+`tracked` (a tracker's corners as an observation), `laws` (what each law uses, the law on a template), `records`
+(StepRecord, RunStats) and `loop` (ServoLoop, the agent). The names a user reaches for load on first use: `import
+hvs_sim.servo` stays cheap."""
 
 from __future__ import annotations
 

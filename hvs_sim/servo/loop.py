@@ -15,14 +15,14 @@ import torch
 from hvs_sim import plugins
 from hvs_sim.control.arm import JointCommand
 from hvs_sim.control.feature_filter import FeatureFilter
-from hvs_sim.control.ibvs import CONTROLLERS, DOF_NAMES, ControlOutput, IBVSController, bound_twist
-from hvs_sim.control.pbvs import PBVSController
+from hvs_sim.control.ibvs import CONTROLLERS, DOF_NAMES, ControlOutput
 from hvs_sim.control.protocol import ControlInput, PolicyInput, scale_depths
 from hvs_sim.control.safety import Envelope, SafetyGate
 from hvs_sim.errors import ConfigError, HvsError, StateError
 from hvs_sim.scene.scenarios import Scenario
 from hvs_sim.sensor import distort_points, undistort_points
 from hvs_sim.servo.config import LoopConfig
+from hvs_sim.servo.laws import ServoLaw, bounded
 from hvs_sim.servo.parts import Capture, Episode, Measured, frozen
 from hvs_sim.servo.plan import check_combination, loop_tracker, resolve
 from hvs_sim.servo.records import StepRecord
@@ -43,7 +43,8 @@ class ServoLoop:
         # an outside law or policy, built before the scene (and checked with the tracker's name before the tracker)
         self.law = None if config.controller in CONTROLLERS else plugins.build("controller", config.controller)
         self.policy = None if config.policy is None else plugins.build("policy", config.policy)
-        self.image_law = config.controller == "dvs" or (self.law is not None and not self.law.uses_features)
+        self.servo_law = ServoLaw(config.controller, self.law)  # what the law uses, and the law on each template
+        self.image_law = not self.servo_law.caps.features
         check_combination(tracker, config, self.image_law)
         self.tracker = loop_tracker(tracker, tracker_config)
         self.scenario, self.tracker_name, self.config = scenario, tracker, config
@@ -54,7 +55,7 @@ class ServoLoop:
             near_goal_tracker = make_tracker(tracker, **{**tracker_config, "scale": self.resolved.near_goal_scale})
         # what a law's failure may raise and the run records as a fault: the built-ins raise HvsError (PBVS on a
         # degenerate quad); an outside method anything
-        self._law_errors = Exception if self.law is not None or self.policy is not None else HvsError
+        self._law_errors = Exception if self.servo_law.caps.outside or self.policy is not None else HvsError
         self.task = ServoTask(scenario)  # the world this agent steps: scene, renderer, arm, s*, metrics
         self.task.reset()  # ConfigError when the target is not fully in view from the start
         self.scene, self.renderer, self.arm = self.task.scene, self.task.renderer, self.task.arm
@@ -66,8 +67,8 @@ class ServoLoop:
         # the camera's frames are rendered only when something reads them: a tracker, a law on the images (or an
         # outside one), a policy, or the records (the recording, the figures); the oracle's features and the
         # evaluation come from geometry and segmentation, so a ground-truth run renders no frame at all
-        self.renders_frames = bool(self.tracker is not None or self.policy is not None or self.law is not None
-                                   or self.image_law or config.keep_frames)
+        self.renders_frames = bool(self.tracker is not None or self.policy is not None or self.servo_law.caps.images
+                                   or config.keep_frames)
 
     def near_goal_plan(self, switched_at: int | None) -> dict | None:
         """run.json's near_goal: the grown template as this run had it (TemplateSchedule.plan)."""
@@ -111,21 +112,16 @@ class ServoLoop:
         return self.templates.goal_image()
 
     def _controller(self, desired_px: np.ndarray, goal: np.ndarray | None, roi):
-        """The step-0 law on the desired corners (pinhole pixels): a built-in, or the outside law built at init."""
-        cfg, K = self.config, self.renderer.K
-        if self.law is not None or self.policy is not None:
-            return self.law
-        if cfg.controller == "dvs":
-            from hvs_sim.control.dvs import DVSController
-
-            return DVSController(K, goal, roi, self.desired_depth, self.ibvs_config)
-        law = IBVSController if cfg.controller == "ibvs" else PBVSController
-        return law(K, desired_px, self.desired_depth, self.ibvs_config, self.dofs)
+        """The law on the desired corners (pinhole pixels) or the goal image's region (None: a policy's episode)."""
+        if self.policy is not None:
+            return None
+        return self.servo_law.build(self.renderer.K, desired_px, self.desired_depth, self.ibvs_config, self.dofs, goal,
+                                    roi)
 
     def _control_input(self, features_px, desired_px, true_depths, mode, motion, frame, goal, step) -> ControlInput:
         """What every law is given at a step (control/protocol.py); the features and s* in the pinhole image."""
         K = self.renderer.K
-        reads_images = self.law is not None or self.image_law  # IBVS and PBVS read no image: no copy for them
+        reads_images = self.servo_law.caps.images  # IBVS and PBVS read no image: no copy for them
         desired_px = self._pinhole(desired_px)
         if self.tracker is None and not self.oracle:  # a law on the images: no features (not the truth's)
             features_px = np.full_like(desired_px, np.nan)
@@ -142,15 +138,6 @@ class ServoLoop:
         return PolicyInput(image=frozen(obs.frame), joints=frozen(obs.joints), goal_image=frozen(goal),
                            K=frozen(self.renderer.K), desired_px=frozen(self._pinhole(desired_px)),
                            dt=1.0 / self.scenario.fps, step=step)
-
-    def _bounded(self, twist: np.ndarray, dofs: tuple[str, ...]) -> ControlOutput:
-        """An outside law's or policy's twist in the DOFs it commands, under the loop's per-axis bounds (reported
-        as saturated when they cut it, as for the built-in laws)."""
-        cols = [DOF_NAMES.index(d) for d in dofs]
-        out = np.zeros(6)
-        out[cols] = np.asarray(twist, float)[cols]
-        out, saturated = bound_twist(out, self.ibvs_config.max_linear, self.ibvs_config.max_angular)
-        return ControlOutput(out, np.zeros(0), 0.0, 0.0, saturated, np.zeros(0), tuple(dofs))  # no gain of ours
 
     def __iter__(self) -> Iterator[StepRecord]:
         return self.run()
@@ -254,12 +241,11 @@ class ServoLoop:
             # like a tracker fault, stop the arm and record it
             try:
                 if self.policy is not None:
-                    ctrl = self._bounded(self.policy.act(self._policy_input(obs, ep.goal, ep.desired, step)), self.dofs)
+                    ctrl = bounded(self.policy.act(self._policy_input(obs, ep.goal, ep.desired, step)), self.dofs,
+                                   self.ibvs_config)
                 else:
                     inp = self._control_input(control_px, ep.desired, depths, mode, motion, obs.frame, ep.goal, step)
-                    ctrl = ep.controller.compute(inp)
-                    if self.law is not None:  # (twist, dofs): bounded as the built-in laws bound theirs
-                        ctrl = self._bounded(ctrl[0], ctrl[1] or self.dofs)
+                    ctrl = ep.controller.compute(inp)  # one ControlOutput, built-in or outside
             except self._law_errors as exc:
                 fault, mode = f"{type(exc).__name__}: {exc}", "fault"
                 if ep.feature_filter is not None:  # a faulty frame clears the filter, as a tracker fault does
