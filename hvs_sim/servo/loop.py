@@ -1,6 +1,7 @@
-"""The closed loop's agent: tracker, feature filter, law and safety rule over one episode, one record per step
-(servo/records.py; logging and plots only read them); the step and its drivers are servo/step.py, the template
-schedule servo/templates.py. A tracker's or law's fault stops the arm for that step and is recorded; the loop goes on.
+"""The closed loop's agent: tracker, feature filter, law and safety rule stepping a ServoTask (servo/task.py: the
+world) over one episode, one record per step (servo/records.py; logging and plots only read them). The step and its
+drivers are servo/step.py, the template schedule servo/templates.py, the law and what it uses servo/laws.py. A
+tracker's or law's fault stops the arm for that step and is recorded; the loop goes on.
 """
 
 from __future__ import annotations
