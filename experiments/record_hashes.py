@@ -5,7 +5,9 @@
 
 The episodes cover the loop's paths: ground-truth IBVS; the hybrid on six DOF with a goal template, the near-goal
 switch and the feature filter through a walk-by (prediction, the safety rule's hold); PBVS; the pipelined loop; an
-outside tracker (the test package's KLT, when installed). Timings and wall times are left out (they are the
+outside tracker (the test package's KLT, when installed); photometric servoing; an outside law and an outside policy
+(the test package's). The gym env's episodes (`env_*`) hash each step's observation, reward, termination and info over
+two seeded resets (the second restarts the compiled model). Timings and wall times are left out (they are the
 machine's); everything else a StepRecord holds is hashed, floats by their bytes.
 """
 
@@ -32,8 +34,19 @@ EPISODES = {  # name: (scenario, tracker, loop settings, steps)
     "hybrid_6dof_pbvs": ("clear", "hybrid", {"warp": "homography", "controller": "pbvs"}, 60),
     "hybrid_pipelined": ("pause", "hybrid", {"warp": "homography", "pipeline": True}, 120),
     "klt_start_template": ("clear", "hvs_test_plugins.track:make", {"template_from": "start"}, 40),
+    "dvs_on_the_images": ("clear", "none", {"controller": "dvs"}, 40),
+    "outside_law": ("clear", "hybrid", {"warp": "homography", "controller": "hvs_test_plugins.law:make"}, 40),
+    "outside_policy": ("clear", "none", {"policy": "hvs_test_plugins.policy:make"}, 30),
 }
 TRACKER_KEYS = {"warp"}
+ENV_EPISODES = {  # name: (env keywords, steps per reset); actions: the IBVS expert on the truth, or seeded draws
+    "env_image_goal_depth": ({"obs_mode": "image+goal+depth", "joints": "sincos", "render_mode": "rgb_array"}, 12),
+    "env_features_joint": ({"obs_mode": "features", "action_type": "joint", "scenario": "walk_by",
+                            "reward": "normalised", "appearance": "fixed"}, 12),
+    "env_features_klt": ({"obs_mode": "features", "tracker": "hvs_test_plugins.track:make", "camera": "phone_handheld",
+                          "width": 320, "height": 240}, 12),
+}
+ENV_SEEDS = (5, 6)
 
 
 def _digest(value) -> str:
@@ -83,17 +96,46 @@ def episode_hashes(name: str) -> dict[str, str]:
     return {k: _digest(v) for k, v in sorted(per_field.items())}
 
 
+def env_hashes(name: str) -> dict[str, str]:
+    from hvs_sim.envs.expert import IBVSExpert
+    from hvs_sim.envs.visual_servo import VisualServoEnv
+
+    kwargs, steps = ENV_EPISODES[name]
+    env = VisualServoEnv(**kwargs)
+    expert = IBVSExpert(env, truth=True) if env.action_type == "twist" else None
+    rng = np.random.default_rng(0)
+    per_field: dict[str, list] = {}
+
+    def add(prefix, d):
+        for k, v in d.items():
+            per_field.setdefault(f"{prefix}.{k}", []).append(v)
+
+    for seed in ENV_SEEDS:
+        obs, info = env.reset(seed=seed)
+        add("obs", obs), add("info", info)
+        for _ in range(steps):
+            action = expert(obs, info) if expert is not None else rng.uniform(-1, 1, env.action_space.shape)
+            obs, reward, terminated, truncated, info = env.step(action)
+            add("obs", obs), add("info", info), add("step", {"reward": reward, "terminated": terminated,
+                                                          "truncated": truncated})
+        if env.render_mode is not None:
+            add("render", {"view": env.render()})
+    per_field["model_builds"] = [env.model_builds]
+    env.close()
+    return {k: _digest(v) for k, v in sorted(per_field.items())}
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--out", help="write the hashes here (JSON)")
     p.add_argument("--check", help="compare with hashes written before; exit 1 on any difference")
-    p.add_argument("--episodes", nargs="*", default=list(EPISODES), choices=list(EPISODES))
+    p.add_argument("--episodes", nargs="*", default=[*EPISODES, *ENV_EPISODES], choices=[*EPISODES, *ENV_EPISODES])
     args = p.parse_args()
     torch.set_num_threads(1)
     hashes = {}
     for name in args.episodes:
         try:
-            hashes[name] = episode_hashes(name)
+            hashes[name] = episode_hashes(name) if name in EPISODES else env_hashes(name)
         except Exception as exc:  # noqa: BLE001 - e.g. the test package is not installed
             hashes[name] = {"error": f"{type(exc).__name__}: {exc}"}
         print(name, "done", file=sys.stderr)

@@ -17,6 +17,7 @@ __version__ = "0.1.0"
 _LAZY = {
     "LoopConfig": "hvs_sim.servo.config",
     "ServoLoop": "hvs_sim.servo.loop",
+    "ServoTask": "hvs_sim.servo.task",
     "run_episode": "hvs_sim.runner",
     "Scenario": "hvs_sim.scene.scenarios",
     "make_scenario": "hvs_sim.scene.scenarios",
@@ -50,6 +51,7 @@ __all__ = [  # the errors, __version__ and _LAZY's names (tests/test_layout.py c
     "Scene",
     "SensorModel",
     "ServoLoop",
+    "ServoTask",
     "StateError",
     "Track",
     "WeightsError",

@@ -1,4 +1,5 @@
-"""One closed-loop episode end to end: loop + optional rerun logging + JSON summary."""
+"""One closed-loop episode end to end: the loop's records through a list of sinks (the rerun recording, the ROS 2
+bag, the per-step CSV, the figures' frame picks), each with on_step and close, and the JSON summary."""
 
 from __future__ import annotations
 
@@ -6,8 +7,11 @@ import csv
 import dataclasses
 import json
 import time
+from collections.abc import Callable
 from dataclasses import asdict
+from functools import partial
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
@@ -29,72 +33,37 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
     figures when paths are given.
 
     Memory stays flat in the number of steps: the summary is accumulated (RunStats), the CSV rows and the
-    recording are written as the run goes, and only the frames the figures show are held. The records are
-    returned only with keep_records (then they hold everything but the frames).
+    recording are written as the run goes (the sinks), and only the frames the figures show are held. The records
+    are returned only with keep_records (then they hold everything but the frames).
     tracker_settings: the tracker's config fields (make_tracker keywords)."""
     from tqdm.auto import tqdm
 
-    logger = rrd_tmp = csv_tmp = None
     config = LoopConfig() if config is None else config
     if figures and not config.keep_frames:
         raise ConfigError("figures need the frames: LoopConfig(keep_frames=True)")
     loop = ServoLoop(scenario, tracker, config, **(tracker_settings or {}))
-    if rrd or spawn:
-        from hvs_sim.viz.rerun_log import RerunLogger, recording
-        from hvs_sim.viz.rr_stream import plot_flush_steps
-
-        if rrd:
-            Path(rrd).parent.mkdir(parents=True, exist_ok=True)
-            rrd_tmp = temporary_beside(rrd)  # renamed into place once the recording is closed
-        try:
-            rec = recording("hvs_sim", rrd=rrd_tmp, spawn=spawn, shown=rrd)
-        except OutputError:  # a full disk before the first step: nothing of this run is left
-            if rrd_tmp is not None:
-                settle(rrd_tmp, rrd, keep=False)
-            raise
-        setup = {"scenario": scenario.name, "mount": scenario.mount, "seed": scenario.seed, "tracker": tracker,
-                 "camera": scenario.camera.sensor.name, "target": scenario.target_label, "wall": scenario.wall,
-                 "people": scenario.people, "start_offset": list(scenario.start_offset), "loop": asdict(config)}
-        logger = RerunLogger(rec, loop.renderer.K, scenario.camera.width, scenario.camera.height,
-                             loop.scene.target_corners_world(), config=setup, wall=loop.scene.wall_box(),
-                             arm_meshes=loop.scene.arm_meshes(), background=True,
-                             plot_flush_every=plot_flush_steps(live=spawn), rrd=rrd)
-    bag = bag_tmp = None
-    if mcap:
-        from hvs_sim.viz.rosbag import BagRecorder, target_frame
-
-        Path(mcap).parent.mkdir(parents=True, exist_ok=True)
-        bag_tmp = temporary_beside(Path(mcap))  # renamed into place once the bag is closed
-        rig = getattr(loop.scene, "rig", None)
-        bag = BagRecorder(bag_tmp, loop.renderer.K, scenario.camera.width, scenario.camera.height,
-                          joint_names=[j.name for j in getattr(rig, "joints", [])] if scenario.mount == "arm" else (),
-                          target=target_frame(loop.scene.target_corners_world()),
-                          distortion=scenario.camera.sensor.distortion, name=Path(mcap).name)
     stats = RunStats(config, loop.near_goal_plan)
+    summary_now = partial(_summary, scenario, tracker, stats)  # (logger, interrupted) -> the run's summary so far
+    rerun = RerunSink(loop, tracker, rrd, spawn, summary_now) if rrd or spawn else None
+    bag = BagSink(loop, Path(mcap)) if mcap else None
     picks = FramePicks(config.steps) if figures else None
+    csv_sink = CsvSink(json_path) if json_path else None
+    sinks: list[Sink] = [s for s in (csv_sink, rerun, bag, picks) if s is not None]  # closed in this order
+    logger = rerun.logger if rerun is not None else None
     records: list[StepRecord] = []
-    csv_file = steps_csv = None
-    if json_path:
-        Path(json_path).parent.mkdir(parents=True, exist_ok=True)
-        csv_tmp = temporary_beside(steps_csv_path(json_path))  # renamed into place when closed
-        csv_file = open_output(csv_tmp)  # closed in finally
-        steps_csv = csv.writer(csv_file)
-        steps_csv.writerow(STEP_COLUMNS)
     bar = tqdm(total=config.steps, disable=not progress, desc=f"{scenario.name}/{tracker}", unit="step")
     interrupted = completed = False
     try:
         for r in loop:
             t0 = time.perf_counter()
-            if logger is not None:
-                logger.log_step(r)
-            if bag is not None:
-                bag.log_step(r)
+            for sink in sinks:
+                if sink.timed:
+                    sink.on_step(r)
             r.timings["log"] = 1e3 * (time.perf_counter() - t0)
             stats.add(r)
-            if steps_csv is not None:
-                steps_csv.writerow(step_row(r))
-            if picks is not None:
-                picks.offer(r)
+            for sink in sinks:
+                if not sink.timed:
+                    sink.on_step(r)
             r.frame = None
             if keep_records:
                 records.append(r)
@@ -108,28 +77,13 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
     finally:
         bar.close()
         keep = completed or (interrupted and stats.n > 0)  # a run that failed leaves no half result behind
-        if csv_file is not None:
-            try:
-                csv_file.close()
-            except OSError as exc:  # its last rows did not fit on the disk: no truncated CSV is left
-                settle(csv_tmp, steps_csv_path(json_path), keep=False)
-                raise output_error(steps_csv_path(json_path), exc) from None
-            settle(csv_tmp, steps_csv_path(json_path), keep)
-        if logger is not None:  # a complete recording of the steps so far, whatever stopped the run
-            logger.drain()  # the queued steps first: whether logging failed is known after them
-            if stats.n:
-                logger.log_summary(_summary(scenario, tracker, stats, logger, interrupted))
-            logger.close()
-            if rrd_tmp is not None and rrd_tmp.exists():  # a complete recording of the steps so far
-                settle(rrd_tmp, rrd, keep and logger.error is None)  # an unfinished recording is removed
-        if bag is not None:
-            bag.close()
-            settle(bag_tmp, Path(mcap), keep)
+        for sink in sinks:
+            sink.close(keep, interrupted)
         if json_path and keep:  # with the settings the loop decided for those the config left to it
-            saved = {**_summary(scenario, tracker, stats, logger, interrupted), "resolved": resolved_json(loop),
+            saved = {**summary_now(logger, interrupted), "resolved": resolved_json(loop),
                      "tracker_contract": getattr(loop.tracker, "contract_note", None)}
             write_atomic(json_path, json.dumps(saved, indent=2))
-    summary = _summary(scenario, tracker, stats, logger, False)
+    summary = summary_now(logger, False)
     # an outside tracker whose first answer looked like another corner convention (plugins.contract_note)
     summary["tracker_contract"] = getattr(loop.tracker, "contract_note", None)
     if figures:
@@ -140,10 +94,117 @@ def run_episode(scenario: Scenario, tracker: str, config: LoopConfig | None = No
     return summary, records
 
 
+class Sink(Protocol):
+    """Where an episode's records go as the run goes. `timed`: its on_step counts as the step's "log" stage (the
+    recordings); close(keep, interrupted) once, whatever stopped the run (keep: the run's output stands)."""
+
+    timed: bool
+
+    def on_step(self, r: StepRecord) -> None: ...
+
+    def close(self, keep: bool, interrupted: bool) -> None: ...
+
+
+class RerunSink:
+    """The rerun recording (an .rrd renamed into place once closed, and/or a spawned viewer), with the run's summary
+    logged at the end."""
+
+    timed = True
+
+    def __init__(self, loop: ServoLoop, tracker: str, rrd: str | None, spawn: bool,
+                 summary: Callable[[object, bool], dict]):
+        from hvs_sim.viz.rerun_log import RerunLogger, recording
+        from hvs_sim.viz.rr_stream import plot_flush_steps
+
+        self.rrd, self.tmp, self.summary, self.steps = rrd, None, summary, 0
+        scenario, config = loop.scenario, loop.config
+        if rrd:
+            Path(rrd).parent.mkdir(parents=True, exist_ok=True)
+            self.tmp = temporary_beside(rrd)  # renamed into place once the recording is closed
+        try:
+            rec = recording("hvs_sim", rrd=self.tmp, spawn=spawn, shown=rrd)
+        except OutputError:  # a full disk before the first step: nothing of this run is left
+            if self.tmp is not None:
+                settle(self.tmp, rrd, keep=False)
+            raise
+        setup = {"scenario": scenario.name, "mount": scenario.mount, "seed": scenario.seed, "tracker": tracker,
+                 "camera": scenario.camera.sensor.name, "target": scenario.target_label, "wall": scenario.wall,
+                 "people": scenario.people, "start_offset": list(scenario.start_offset), "loop": asdict(config)}
+        self.logger = RerunLogger(rec, loop.renderer.K, scenario.camera.width, scenario.camera.height,
+                                  loop.scene.target_corners_world(), config=setup, wall=loop.scene.wall_box(),
+                                  arm_meshes=loop.scene.arm_meshes(), background=True,
+                                  plot_flush_every=plot_flush_steps(live=spawn), rrd=rrd)
+
+    def on_step(self, r: StepRecord) -> None:
+        self.logger.log_step(r)
+        self.steps += 1
+
+    def close(self, keep: bool, interrupted: bool) -> None:
+        """A complete recording of the steps so far, whatever stopped the run; an unfinished one is removed."""
+        self.logger.drain()  # the queued steps first: whether logging failed is known after them
+        if self.steps:
+            self.logger.log_summary(self.summary(self.logger, interrupted))
+        self.logger.close()
+        if self.tmp is not None and self.tmp.exists():
+            settle(self.tmp, self.rrd, keep and self.logger.error is None)
+
+
+class BagSink:
+    """The ROS 2 bag (a new folder, renamed into place once closed)."""
+
+    timed = True
+
+    def __init__(self, loop: ServoLoop, mcap: Path):
+        from hvs_sim.viz.rosbag import BagRecorder, target_frame
+
+        scenario = loop.scenario
+        mcap.parent.mkdir(parents=True, exist_ok=True)
+        self.mcap, self.tmp = mcap, temporary_beside(mcap)
+        rig = getattr(loop.scene, "rig", None)
+        self.bag = BagRecorder(self.tmp, loop.renderer.K, scenario.camera.width, scenario.camera.height,
+                               joint_names=[j.name for j in getattr(rig, "joints", [])] if scenario.mount == "arm"
+                               else (), target=target_frame(loop.scene.target_corners_world()),
+                               distortion=scenario.camera.sensor.distortion, name=mcap.name)
+
+    def on_step(self, r: StepRecord) -> None:
+        self.bag.log_step(r)
+
+    def close(self, keep: bool, interrupted: bool) -> None:
+        self.bag.close()
+        settle(self.tmp, self.mcap, keep)
+
+
+class CsvSink:
+    """The per-step CSV beside run.json (steps_csv_path), written row by row."""
+
+    timed = False
+
+    def __init__(self, json_path):
+        self.path = steps_csv_path(json_path)
+        Path(json_path).parent.mkdir(parents=True, exist_ok=True)
+        self.tmp = temporary_beside(self.path)  # renamed into place when closed
+        self.file = open_output(self.tmp)  # closed in close()
+        self.writer = csv.writer(self.file)
+        self.writer.writerow(STEP_COLUMNS)
+
+    def on_step(self, r: StepRecord) -> None:
+        self.writer.writerow(step_row(r))
+
+    def close(self, keep: bool, interrupted: bool) -> None:
+        try:
+            self.file.close()
+        except OSError as exc:  # its last rows did not fit on the disk: no truncated CSV is left
+            settle(self.tmp, self.path, keep=False)
+            raise output_error(self.path, exc) from None
+        settle(self.tmp, self.path, keep)
+
+
 class FramePicks:
     """The four steps `frames.png` shows, chosen as the run goes so that only their frames are held: the
     start, the first step over FIGURE_RISING_OCCLUSION, the peak occlusion, the end (without occlusion
-    figures, evaluate=False: the thirds of the run)."""
+    figures, evaluate=False: the thirds of the run). A sink: on_step offers it each record."""
+
+    timed = False
 
     def __init__(self, steps: int):
         self.steps = steps
@@ -163,6 +224,11 @@ class FramePicks:
         if r.step in (self.steps // 3, 2 * self.steps // 3):
             self.thirds[r.step] = keep
         self.last = keep
+
+    on_step = offer
+
+    def close(self, keep: bool, interrupted: bool) -> None:
+        """Nothing to write: the figures are drawn from the picks after the run."""
 
     def records(self) -> list[StepRecord]:
         if self.start is None:

@@ -75,8 +75,8 @@ def test_a_tracker_fills_the_features():
     for _ in range(5):
         obs, _, _, _, info = env.step(np.zeros(6, np.float32))
     # the tracked box's corners (the template the tracker took inside the target) where they truly are now
-    truth = env.renderer.transfer(env.flag0, env.renderer.ground_truth(occlusion=False, counts=False).corners,
-                                  env.roi0)
+    truth = env.renderer.transfer(env.tracker.flag0, env.renderer.ground_truth(occlusion=False, counts=False).corners,
+                                  env.tracker.roi0)
     assert info["tracker_mode"] == "align" and np.abs(obs["features"] - truth).max() < 1.0
     assert not np.allclose(obs["desired"], env.desired)  # s* of the tracked box, not of the target's outline
 

@@ -15,22 +15,14 @@ Terminated when that error stays below `converge_px` for `hold_steps` steps.
 info: error_px, occlusion (true share of the target hidden), converged and is_success (the same: read by SB3, HER and
 gymnasium-robotics), held_steps, K (3×3 intrinsics), camera_pose (4×4, world from camera, OpenCV axes); with a
 tracker, tracker_mode and tracker_fault.
-render(): "rgb_array" a third-person view of the scene (arm, wall, people; `render_size`), "depth_array" the wrist
-camera's depth.
-reset(options=...): any of "scenario", "start_offset" ((dx, dy, dz, roll) or (dx, dy, dz, roll, pitch, yaw), m and
-rad), "camera", "people" for that episode; other keys are refused by name.
-Reset cost: an episode whose compiled model would be the same as the last one's (scene.world.model_key: the same
-scenario, camera and people, the seed drawing nothing of the model) restarts on it (Scene.restart) instead of building
-and compiling the scene and its rendering context again. With people or per-seed textures each episode's seed draws a
-new look, hence a new model; `appearance="fixed"` keeps the look drawn at the first reset (or the last reset with a
-seed) so those episodes restart too, at the price of less visual variety (the camera's noise still differs by episode).
+render() ("rgb_array": a third-person view; "depth_array": the wrist camera's depth), reset(options=...) ("scenario",
+"start_offset", "camera", "people"; other keys refused by name), `appearance`, the defaults (scenario "clear", 160×120,
+the ideal camera) and vector envs (workers started with 'spawn' once the parent has rendered): docs/usage.md, "The
+gymnasium environment". arm: one of scene.arms.ARMS; the joints' observation and a joint action have its size.
+An action must have the space's shape and finite values (a NaN would poison the physics); it is clipped to [−1, 1].
 
-arm: one of scene.arms.ARMS ("jaco", 6 joints; "panda", 7; "ur5e", 6; "gen3", 7): the joints' observation and a
-joint action have the arm's size.
-Defaults worth knowing: scenario "clear" (no person; pass e.g. scenario="walk_by"), a 160×120
-image, the ideal camera. An action must have the action space's shape and finite values (a NaN
-would poison the physics); values outside [−1, 1] are clipped, as the space says.
-Workers of a vector env must be started with 'spawn' once the parent has rendered (see gl.py).
+An adapter over hvs_sim.servo.task.ServoTask, which owns the scene, renderer, arm, s* and the metrics (and a reset's
+reuse of the compiled model); the env adds the spaces, the start draws, the reward and the convergence rule.
 """
 
 from __future__ import annotations
@@ -43,10 +35,10 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from hvs_sim.control.arm import ArmDriver
 from hvs_sim.errors import ConfigError, InputError, StateError, choice_error
-from hvs_sim.render.camera import CameraPose
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
+from hvs_sim.servo.task import ServoTask
+from hvs_sim.servo.tracked import TrackedCorners
 from hvs_sim.validate import check_number
 
 OBS_MODES = ("image", "image+goal", "image+goal+depth", "features")
@@ -57,15 +49,13 @@ RENDER_MODES = ("rgb_array", "depth_array")
 PIXEL_BOUND = 1e4  # corner coordinates in the observation: pixels, far outside any image
 START_DRAWS = 20  # start poses drawn per reset before giving up (unreachable, or the target out of view)
 MAX_DEPTH_M = 10.0  # the scene's far clip plane (scene/world.py): the depth observation's bound
+ACTION_TYPES = ("twist", "joint")
+REWARDS = ("pixels", "normalised")
+MIN_IMAGE = 64  # pixels, as CameraConfig accepts
 
 
 class ResetNeededError(StateError, gym.error.ResetNeeded):
     """step() before reset(): an HvsError that gymnasium's wrappers also recognise."""
-
-
-ACTION_TYPES = ("twist", "joint")
-REWARDS = ("pixels", "normalised")
-MIN_IMAGE = 64  # pixels, as CameraConfig accepts
 
 
 class VisualServoEnv(gym.Env):
@@ -83,12 +73,10 @@ class VisualServoEnv(gym.Env):
         registry or an outside one (hvs_sim.plugins), initialised on the episode's first frame."""
         if render_mode not in (None, *RENDER_MODES):
             raise choice_error("render_mode", render_mode, [*RENDER_MODES, "None"])
-        if obs_mode not in OBS_MODES:
-            raise choice_error("obs_mode", obs_mode, OBS_MODES)
-        if appearance not in APPEARANCES:
-            raise choice_error("appearance", appearance, APPEARANCES)
-        if joints not in JOINT_OBS:
-            raise choice_error("joints", joints, JOINT_OBS)
+        for name, value, choices in (("obs_mode", obs_mode, OBS_MODES), ("appearance", appearance, APPEARANCES),
+                                     ("joints", joints, JOINT_OBS)):
+            if value not in choices:
+                raise choice_error(name, value, choices)
         if tracker != "ground_truth":
             if obs_mode != "features":
                 raise ConfigError(f"tracker={tracker!r} fills the 'features' observation: give obs_mode='features'")
@@ -97,10 +85,9 @@ class VisualServoEnv(gym.Env):
             check_any_tracker(tracker)
         for name, v in zip(("render width", "render height"), render_size, strict=True):
             check_number(name, v, 64, 4096, integer=True)
-        if action_type not in ACTION_TYPES:
-            raise choice_error("action_type", action_type, ACTION_TYPES)
-        if reward not in REWARDS:
-            raise choice_error("reward", reward, REWARDS)
+        for name, value, choices in (("action_type", action_type, ACTION_TYPES), ("reward", reward, REWARDS)):
+            if value not in choices:
+                raise choice_error(name, value, choices)
         check_number("width", width, MIN_IMAGE, integer=True)
         check_number("height", height, MIN_IMAGE, integer=True)
         check_number("max_offset (m)", max_offset, 0, 0.2)
@@ -112,18 +99,14 @@ class VisualServoEnv(gym.Env):
         self.reward_scale = 1.0 / float(np.hypot(width, height)) if reward == "normalised" else 1.0
         self.render_mode, self.action_type = render_mode, action_type
         self.obs_mode, self.joint_obs, self.tracker_name = obs_mode, joints, tracker
-        self.render_size = tuple(render_size)
-        self.scenario_name = scenario
+        self.render_size, self.scenario_name = tuple(render_size), scenario
         self.base = make_scenario(scenario, mount="arm", camera=CameraConfig(width=width, height=height, sensor=camera),
                                   arm=arm)
-        self.tracker = None
-        self.max_offset, self.max_roll = max_offset, max_roll
+        self.tracker, self.max_offset, self.max_roll = None, max_offset, max_roll  # tracker: TrackedCorners at reset
         self.converge_px, self.hold_steps = converge_px, hold_steps
         self.scale = np.array([max_linear] * 3 + [max_angular] * 3)
-        self.scene = self.renderer = None
         self.appearance, self._look_seed = appearance, None
-        self._compiled = None  # the last episode's Scene: its model and rendering context, kept for restart
-        self.model_builds = 0  # scenes built and compiled (the rest of the resets restarted one)
+        self.task = ServoTask(self.base, framebuffer=self.render_size if render_mode == "rgb_array" else None)
         from hvs_sim.scene.arms import ARMS, robosuite_robots
 
         if ARMS[arm].from_files:  # the model files are there, or the env says how to get them (not 20 failed draws)
@@ -148,17 +131,22 @@ class VisualServoEnv(gym.Env):
         self.observation_space = spaces.Dict(obs)
         self.action_space = spaces.Box(-1.0, 1.0, (6 if action_type == "twist" else n,), np.float32)
 
+    # the task's world under the names the env's users read
+    scene = property(lambda self: self.task.scene)
+    renderer = property(lambda self: self.task.renderer)
+    desired = property(lambda self: self.task.desired)  # s*: the target's corners at the reference pose
+    model_builds = property(lambda self: self.task.model_builds)  # scenes built and compiled (the rest restarted one)
+
     def _obs(self):
-        frame = None if self.obs_mode == "features" and self.tracker is None else self.renderer.rgb()
-        q, qd = self.scene.joint_positions, self.scene.joint_velocities
-        if self.joint_obs == "wrapped":
-            joints = np.concatenate([(q + np.pi) % (2 * np.pi) - np.pi, qd])
-        else:
-            joints = np.concatenate([np.sin(q), np.cos(q), qd])
-        obs = {"joints": joints}
+        seen = self.task.observe(frame=not (self.obs_mode == "features" and self.tracker is None))
+        frame, q, qd = seen.frame, seen.joints, seen.joint_velocities
+        angles = [(q + np.pi) % (2 * np.pi) - np.pi] if self.joint_obs == "wrapped" else [np.sin(q), np.cos(q)]
+        obs = {"joints": np.concatenate([*angles, qd])}
         if self.obs_mode == "features":  # with a tracker, its box's corners and where they go at the goal
-            desired = self.desired if self.tracker is None else self.tracked_desired
-            obs.update(features=self._features(frame), desired=desired.copy())
+            if self.tracker is None:  # the truth
+                obs.update(features=self.task.truth(occlusion=False).corners.astype(np.float64), desired=self.desired.copy())
+            else:
+                obs.update(features=self.tracker.update(frame), desired=self.tracker.desired.copy())
         else:
             obs["image"] = frame
         if self.obs_mode.startswith("image+goal"):
@@ -167,33 +155,17 @@ class VisualServoEnv(gym.Env):
             obs["depth"] = np.clip(self.renderer.depth(), 0.0, MAX_DEPTH_M).astype(np.float32)
         return obs
 
-    def _features(self, frame: np.ndarray) -> np.ndarray:
-        """The target's corners now: the truth, or the tracker's (its last good answer when it faults)."""
-        if self.tracker is None:
-            return self.renderer.ground_truth(occlusion=False, counts=False).corners.astype(np.float64)
-        if self._fresh:  # the episode's first frame is the one the tracker was initialised on
-            self._fresh = False
-            return np.asarray(self._tracked, np.float64).copy()
-        try:
-            track = self.tracker.update(frame)
-            if not np.all(np.isfinite(track.corners)):
-                raise FloatingPointError("tracker returned non-finite corners")
-            self._tracked, self._tracker_mode, self._tracker_fault = track.corners, str(track.mode), None
-        except Exception as exc:  # noqa: BLE001 - a tracker fault is reported in info, the episode goes on
-            self._tracker_mode, self._tracker_fault = "fault", f"{type(exc).__name__}: {exc}"
-        return np.asarray(self._tracked, np.float64).copy()
-
     def _info(self, err: float, converged: bool) -> dict:
         info = {"error_px": err, "occlusion": self._occlusion, "converged": converged, "is_success": converged,
                 "held_steps": self._held, "K": self.renderer.K.copy(), "camera_pose": self.renderer.camera_pose().matrix()}
         if self.tracker is not None:
-            info.update(tracker_mode=self._tracker_mode, tracker_fault=self._tracker_fault)
+            info.update(tracker_mode=self.tracker.mode, tracker_fault=self.tracker.fault)
         return info
 
-    def _error(self) -> float:
-        gt = self.renderer.ground_truth(occlusion=True)
-        self._occlusion = float(gt.occlusion)
-        return float(np.linalg.norm(gt.corners - self.desired, axis=1).mean())
+    def _grade(self, truth) -> float:
+        """The step's error to s* (px), keeping its occlusion for info."""
+        self._occlusion = float(truth.occlusion)
+        return self.task.error_px(truth)
 
     def _episode_scenario(self, options) -> object:
         """The base scenario with this episode's options (validated; unknown keys refused by name)."""
@@ -207,28 +179,22 @@ class VisualServoEnv(gym.Env):
             raise InputError(f"unknown reset option(s) {', '.join(map(str, unknown))}; accepted: {', '.join(RESET_OPTIONS)}")
         cam = self.base.camera
         try:
-            base = make_scenario(options.get("scenario", self.scenario_name), mount="arm", arm=self.base.arm,
+            return make_scenario(options.get("scenario", self.scenario_name), mount="arm", arm=self.base.arm,
                                  camera=CameraConfig(width=cam.width, height=cam.height,
                                                      sensor=options.get("camera", cam.sensor)),
                                  **({"people": options["people"]} if "people" in options else {}))
         except ConfigError as exc:
             raise InputError(f"reset options: {exc}") from None
-        return base
 
     def reset(self, *, seed=None, options=None):
         if seed is not None and (isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0):
             raise InputError(f"seed must be None or a non-negative integer, got {seed!r}")
         super().reset(seed=None if seed is None else int(seed))
-        from hvs_sim.render.renderer import Renderer
-        from hvs_sim.scene.world import Scene, model_key
-
         if seed is not None:  # a seeded reset draws its look again, so that it repeats from any earlier state
             self._look_seed = None
 
         base = self._episode_scenario(options)
         rng = self.np_random
-        from hvs_sim.servo.teach import check_start_in_view
-
         given = options is not None and "start_offset" in options
         for draw in range(1 if given else START_DRAWS):
             offset = (*rng.uniform(-self.max_offset, self.max_offset, 3), rng.uniform(-self.max_roll, self.max_roll))
@@ -242,53 +208,18 @@ class VisualServoEnv(gym.Env):
             except (TypeError, ValueError, ConfigError) as exc:
                 raise InputError(f"reset option start_offset {offset!r}: {exc}; accepted: 4 or 6 finite numbers (dx, "
                                  "dy, dz m, roll[, pitch, yaw] rad)") from None
-            self.scene = None  # until a start pose is usable
             try:  # a start the arm cannot reach or with the target out of view: a drawn one is drawn again
-                if self._compiled is not None and model_key(scen) == model_key(self._compiled.scenario):
-                    self._compiled.restart(scen)
-                else:
-                    self._compiled = None  # the old model's memory goes before the new one is built
-                    self._compiled = Scene(scen, framebuffer=self.render_size if self.render_mode == "rgb_array" else None)
-                    self.model_builds += 1
-                renderer = Renderer(self._compiled, noise_seed=noise)
-                check_start_in_view(self._compiled, renderer)
-                self.scene, self.renderer = self._compiled, renderer
+                self.task.reset(scenario=scen, noise_seed=noise)  # no scene until a start pose is usable
                 break
             except ConfigError as exc:
                 if given or draw == START_DRAWS - 1:
                     raise InputError(f"no usable start pose ({exc})") from None
-        ref_pos, ref_R = self.scene.reference_pose()
-        self.desired = self.renderer.project(CameraPose(ref_R, ref_pos), self.scene.target_corners_world())
         if self.obs_mode.startswith("image+goal"):
-            teacher = Renderer(self.scene, people=False)
-            with self.scene.posed(self.scene.reference_configuration()):
-                self.goal = teacher.rgb()
-        self.arm = ArmDriver(self.scene)
+            self.goal = self.task.goal_image()[0]  # one frame of the clear scene at the reference pose
         self._held = 0
-        self._start_tracker()
-        err = self._error()
+        self.tracker = None if self.tracker_name == "ground_truth" else TrackedCorners(self.tracker_name, self.task)
+        err = self._grade(self.task.truth(occlusion=True, counts=True))
         return self._obs(), self._info(err, False)
-
-    def _start_tracker(self) -> None:
-        """With a tracker: its template at the target's box in the episode's first frame."""
-        self.tracker = None
-        if self.tracker_name == "ground_truth":
-            return
-        from hvs_sim.plugins import make_any_tracker
-        from hvs_sim.tracking.frames import roi_corners, roi_from_corners
-
-        self.tracker = make_any_tracker(self.tracker_name)
-        self.flag0 = self.renderer.ground_truth(occlusion=False, counts=False).corners
-        roi = roi_from_corners(self.flag0)
-        self.roi0 = roi_corners(roi)  # the tracked box's corners in the first frame; s* is where they go at the goal
-        self.tracked_desired = self.renderer.transfer(self.flag0, self.desired, self.roi0)
-        try:
-            track = self.tracker.init(self.renderer.rgb(), roi)
-        except Exception as exc:  # the episode cannot give features: say so, as the loop does
-            raise StateError(f"tracker {self.tracker_name!r} could not start on the first frame: "
-                             f"{type(exc).__name__}: {exc}") from exc
-        self._tracked = self.roi0 if track is None else track.corners  # an outside tracker's init may answer nothing
-        self._tracker_mode, self._tracker_fault, self._fresh = "init", None, True
 
     def step(self, action):
         if self.scene is None:
@@ -305,12 +236,8 @@ class VisualServoEnv(gym.Env):
         if not np.isfinite(a).all():
             raise InputError("action contains NaN or inf; the physics would be left in an invalid state")
         a = np.clip(a, -1.0, 1.0)
-        if self.action_type == "twist":
-            qdot = self.arm.command(a * self.scale).qdot
-        else:
-            qdot = a * self.arm.limits.qdot_max
-        self.scene.advance(qdot)
-        err = self._error()
+        act = {"twist": a * self.scale} if self.action_type == "twist" else {"qdot": a * self.task.arm.limits.qdot_max}
+        err = self._grade(self.task.step(**act, frame=False, counts=True)[1])  # the frame: _obs's, when it needs one
         self._held = self._held + 1 if err < self.converge_px else 0
         terminated = self._held >= self.hold_steps
         obs = self._obs()
@@ -326,4 +253,4 @@ class VisualServoEnv(gym.Env):
         return None
 
     def close(self):
-        self.scene = self.renderer = self._compiled = None
+        self.task.close()

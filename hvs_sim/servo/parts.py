@@ -1,5 +1,6 @@
-"""The closed loop's small parts, apart so that servo/loop.py reads as the loop: the settings it resolves, what one step
-carries between its phases, and the stopwatch of its timings. hvs_sim.servo.loop imports this module, never the reverse."""
+"""The closed loop's small parts, apart so that servo/loop.py reads as the loop: the settings it resolves, the servo
+task's two answers (Observation, Truth: here, beneath servo/task.py, so that the loop's config may read this module),
+what one step carries between its phases, and the stopwatch of its timings. No servo module is imported here."""
 
 from __future__ import annotations
 
@@ -11,7 +12,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from hvs_sim.render.camera import CameraPose
-from hvs_sim.render.renderer import GroundTruth
 from hvs_sim.tracking import Track
 
 if TYPE_CHECKING:
@@ -57,14 +57,34 @@ class ResolvedLoop:
     near_goal_scale: float | None = None  # the working scale of the second tracker built for it (None: the loop's own)
 
 
+@dataclass(frozen=True)
+class Observation:
+    """What a controller may read at a step (ServoTask.observe)."""
+
+    frame: np.ndarray | None  # H×W×3 uint8 from the camera (None: not asked for, rendering costs)
+    joints: np.ndarray  # joint angles (rad)
+    joint_velocities: np.ndarray  # rad/s
+    camera: CameraPose  # world from camera (OpenCV axes), the joints' forward kinematics
+    K: np.ndarray  # 3×3 intrinsics
+    time: float  # s since the episode began
+
+
+@dataclass(frozen=True)
+class Truth:
+    """What grades a step and no controller reads: the simulator's own answer (ServoTask.truth)."""
+
+    corners: np.ndarray  # the target's corners in the camera's image (px, through the lens)
+    occlusion: float  # share of the target hidden (NaN: not evaluated)
+    pose_error: np.ndarray  # the camera's error to the reference pose (scene.world.Scene.pose_error)
+
+
 @dataclass
 class Capture:
-    """What a step reads from the scene at its state (ServoLoop._capture)."""
+    """What a step reads from the task at its state (servo/step.py: capture): the observation control reads, the truth
+    that grades it (never given to control), and what the recording shows."""
 
-    frame: np.ndarray | None  # None when nothing reads the frames (ServoLoop.renders_frames)
-    gt: GroundTruth
-    time: float
-    pose_error: np.ndarray
+    obs: Observation  # its frame None when nothing reads the frames (ServoLoop.renders_frames)
+    truth: Truth
     people: list
     arm: tuple | None
     depths: np.ndarray | None
@@ -84,7 +104,7 @@ class Template:
 
 @dataclass
 class Episode:
-    """What step 0 fixes for the episode (ServoLoop._step_zero; the template's fields change once, at the switch to
+    """What step 0 fixes for the episode (ServoLoop.step_zero; the template's fields change once, at the switch to
     near_goal), and what is carried from step to step."""
 
     flag0: np.ndarray  # the target's corners in the template's image

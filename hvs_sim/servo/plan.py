@@ -5,9 +5,10 @@ from __future__ import annotations
 
 from hvs_sim import plugins
 from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
-from hvs_sim.control.ibvs import CONTROLLERS, TRACKED_6DOF_DAMPING, dofs_for
+from hvs_sim.control.ibvs import TRACKED_6DOF_DAMPING, dofs_for
 from hvs_sim.errors import ConfigError
 from hvs_sim.servo.config import LoopConfig
+from hvs_sim.servo.laws import law_caps
 from hvs_sim.servo.parts import GOAL_FRAMES, NEAR_GOAL_AUTO, NEAR_GOAL_SCALE, ResolvedLoop
 from hvs_sim.tracking import TRACKER_NAMES, Tracker, make_tracker
 
@@ -16,9 +17,10 @@ def check_combination(tracker: str, config: LoopConfig, image_law: bool | None =
     """The rules between the tracker's name and the loop's settings (ServoLoop applies them, and a sweep checks its
     whole grid with them before it runs). `image_law`: whether the law reads only the images; None: what the settings
     say without building the law (dvs does; an outside law is given the benefit of the doubt)."""
-    unknown = image_law is None and config.controller not in CONTROLLERS  # an outside law not built: either may hold
+    caps = law_caps(config.controller)  # None: an outside law not built, which either rule may hold for
+    unknown = image_law is None and caps is None
     if image_law is None:
-        image_law = config.controller == "dvs"
+        image_law = caps is not None and not caps.features
     if config.policy is not None and tracker != plugins.NO_TRACKER:
         raise ConfigError(f"a policy ({config.policy!r}) replaces tracker and law: give tracker 'none', not "
                           f"{tracker!r}")
@@ -68,7 +70,8 @@ def resolve(name: str, config: LoopConfig, tracker, law, policy) -> ResolvedLoop
     tracked_6dof = tracker is not None and len(dofs) == 6
     damping = config.ibvs.damping
     if damping is None:  # exact features need none; tracked ones on six DOF do (IBVSConfig.damping)
-        damping = TRACKED_6DOF_DAMPING if tracked_6dof and config.controller in ("ibvs", "pbvs") else 0.0
+        caps = law_caps(config.controller, law)
+        damping = TRACKED_6DOF_DAMPING if tracked_6dof and caps is not None and caps.damped else 0.0
     alpha = config.feature_filter
     alpha = (FEATURE_FILTER_ALPHA if tracked_6dof else 0.0) if alpha is None else float(alpha)
     can_seed = getattr(tracker, "can_seed", True)  # an outside tracker without seed(A): its first frame

@@ -24,7 +24,7 @@ def corners_in_view(px: np.ndarray, camera, margin: float = 0.0) -> bool:
 
 def box_in_view(roi, camera) -> bool:
     """Whether a template box lies as far inside a camera's image as the switch to a grown template asks of its
-    corners in the frame (ServoLoop._near_goal_due: IN_VIEW_MARGIN_PX), so that a run given it can switch."""
+    corners in the frame (TemplateSchedule.due: IN_VIEW_MARGIN_PX), so that a run given it can switch."""
     return corners_in_view(roi_corners(roi), camera, IN_VIEW_MARGIN_PX)
 
 
