@@ -190,3 +190,25 @@ def test_a_static_target_is_followed_when_the_whole_view_moves_faster_than_reacq
         track = tracker.update(_panned(wall, -12.0 * k, 3.0 * k))
         assert track.mode == "align", k
         assert np.allclose(track.center, np.array([320.0 - 12 * k, 230.0 + 3 * k]), atol=0.5), (k, track.center)
+
+
+def test_after_a_cut_a_faded_look_alike_in_the_unrelated_shot_is_never_aligned():
+    """A re-acquisition must pass more than the NCC score (HybridTracker._reacquisition_verified). The shot after the
+    cut holds a faded look-alike (half the template, half the template shifted by half its size): its global-match
+    score clears the 0.6 threshold and OP_t at it mostly passes the gate, yet it is not the target, and the track must
+    stay `lost` (with a note saying why) rather than lock on it. Before the re-acquisition checks it was aligned."""
+    case = scene_cut(2, cut_at=30, n_frames=75)
+    x, y, w, h = case.roi
+    template = case.frames[0][y:y + h, x:x + w].astype(np.float32)
+    look_alike = np.clip(0.5 * template + 0.5 * np.roll(template, (h // 2, w // 2), axis=(0, 1)), 0, 255)
+    frames = [f.copy() for f in case.frames]
+    for k in range(case.cut_at, len(frames)):
+        px, py = 40 + k - case.cut_at, 30  # it drifts slowly through the new shot
+        frames[k][py:py + h, px:px + w] = look_alike.astype(np.uint8)
+    tracker = make_tracker("hybrid")
+    tracker.init(frames[0], case.roi)
+    tracks = [tracker.update(f) for f in frames[1:]]
+    after = tracks[case.cut_at - 1:]
+    assert [str(t.mode) for t in after] == ["lost"] * len(after)
+    assert max(t.score for t in after) >= 0.6 and min(t.occlusion for t in after) < 0.4  # only other checks refuse it
+    assert any(n.startswith(f"lost at frame {case.cut_at}: a scene cut") for n in tracker.notes), tracker.notes
