@@ -300,14 +300,6 @@ class Aligner:
             self._rectified_for = (theta, scale)
         return self.search_template
 
-    def match_as_aligned(self, work: np.ndarray, A: np.ndarray) -> Match:
-        """The global match over `work` of the template rectified by pose `A`'s θ and s (full res), the cached
-        search template left as it is: how a target aligned at A stands out from the rest of the frame when the
-        search sees it in the shape the alignment found (HybridTracker._unique)."""
-        _, _, theta, scale = matrix_to_pose(A, self.center0)
-        R = pose_to_matrix((0.0, 0.0, -theta, 1.0 / scale), self.c_work)
-        return self.matcher.match(work, self.template_patch(self.init_work, R))
-
     # ----------------------------------------------------------------- per frame
 
     def occlusion(self, work: np.ndarray, A_work: np.ndarray) -> float:
