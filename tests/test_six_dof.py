@@ -110,7 +110,7 @@ def test_hybrid_gates_occlusion_where_it_aligned_not_at_a_misaligned_seed():
     for _ in range(far.hconfig.reacquire_frames):
         calls.clear()
         modes.append(far.update(frame).mode)
-        assert len(calls) == 2  # gated again where it aligned
+        assert len(calls) >= 2  # gated again where it aligned (and where the surroundings put it)
     assert modes == ["predict"] * (far.hconfig.reacquire_frames - 1) + ["align"], modes
     assert np.linalg.norm(far.update(frame).corners - true, axis=1).max() < 0.1
 

@@ -79,7 +79,8 @@ class DeepLKConfig:
     margin: int = 8  # work px of context around the template / patch
     reinit_px: float = 2.0  # re-seed from the global match when it disagrees by more than this (work px)
     # an alignment that turns or scales the target more than this from its seed in one frame is
-    # rejected (LK pulled by an occluder); a real 30 Hz camera does not move that fast
+    # rejected (LK pulled by an occluder); a real 30 Hz camera does not move that fast. From an estimate
+    # whose θ and s were last measured n frames ago, n times this (Aligner.align's `frames`)
     max_rotation_step: float = 0.1  # rad (5.7°)
     max_scale_step: float = 0.08
     device: str = "cpu"
@@ -417,11 +418,16 @@ class Aligner:
 
         return huber(r1[both]) < RESIDUAL_GAIN * huber(r0[both])
 
-    def align(self, work: np.ndarray, A_work: np.ndarray, estimate: np.ndarray | None = None) -> Alignment:
+    def align(self, work: np.ndarray, A_work: np.ndarray, estimate: np.ndarray | None = None,
+              frames: int = 1) -> Alignment:
         """Feature LK (+ residual) from A_work; `A_work` of the result is None when the alignment is
         rejected (a jump of θ or s, too few points in view, a scale or shift no camera makes). θ and s may
         continue either the seed's or `estimate`'s (the current estimate, work px): a seed from the template
-        as taken (θ = 0, s = 1) otherwise refuses a target seen rolled by more than max_rotation_step."""
+        as taken (θ = 0, s = 1) otherwise refuses a target seen rolled by more than max_rotation_step.
+        `frames`: how many frames ago `estimate`'s θ and s were last measured; the target may have turned and
+        scaled by a step in each of them. With one step only, a camera that rolled while the tracker predicted left
+        the visible target refused on every later frame (a servo's first, fastest steps on dev `pause` seed 279:
+        8° from the estimate after 5 predicted frames, and the arm held still there by the safety rule)."""
         out = self.lk(work, A_work)
         if out is None:
             return Alignment(None, None)
@@ -446,15 +452,16 @@ class Aligner:
             return Alignment(None, out, used)
         scale = matrix_to_pose(A_new, self.c_work)[3]
         moved = np.linalg.norm(apply(A_new, self.c_work[None]) - apply(A_work, self.c_work[None]))
-        jump = all(self._jumps(A_from, A_new) for A_from in (A_work, estimate) if A_from is not None)
+        jump = self._jumps(A_work, A_new) and (estimate is None or self._jumps(estimate, A_new, frames))
         if not 0.5 < scale < 2.0 or moved > self.rho or res.valid < MIN_VALID or jump:
             return Alignment(None, out, used)
         return Alignment(A_new, out, used)
 
-    def _jumps(self, A_from: np.ndarray, A_new: np.ndarray) -> bool:
-        """Whether A_new's rotation or scale differs from A_from's by more than a frame's step allows."""
+    def _jumps(self, A_from: np.ndarray, A_new: np.ndarray, frames: int = 1) -> bool:
+        """Whether A_new's rotation or scale differs from A_from's by more than `frames` frames' steps allow."""
         _, _, d_theta, d_scale = matrix_to_pose(np.linalg.solve(A_from, A_new), self.c_work)
-        return abs(d_theta) > self.config.max_rotation_step or abs(d_scale - 1) > self.config.max_scale_step
+        c = self.config
+        return abs(d_theta) > c.max_rotation_step * frames or abs(d_scale - 1) > c.max_scale_step * frames
 
     def refine_intensity(self, A_work: np.ndarray) -> np.ndarray | None:
         """The homography from A_work refined on the full-resolution grey template, with the exposure's gain

@@ -19,8 +19,10 @@ from hvs_sim.errors import ConfigError
 class Match:
     center: np.ndarray  # (x, y) of the template centre, frame pixels (sub-pixel)
     score: float  # peak NCC in [-1, 1]; 0 for a blank frame
-    # best NCC away from the peak (further than the template's smaller side, on the coarse
-    # search): how unique the match is; a self-similar texture (fur, gravel) has second ≈ score
+    # best NCC away from the peak (further than half the template's smaller side, on the coarse
+    # search): how unique the match is; a self-similar texture (fur, gravel) has second ≈ score, and so
+    # has a weakly textured target along its own direction (a kerb, a road line: its look-alike lies
+    # less than a template's side along it)
     second: float = -1.0
 
 
@@ -86,14 +88,14 @@ class GlobalMatcher:
             tsmall = cv2.resize(template, None, fx=1 / f, fy=1 / f, interpolation=cv2.INTER_AREA)
             resp = np.nan_to_num(cv2.matchTemplate(small, tsmall, cv2.TM_CCOEFF_NORMED), nan=-1.0)
             _, _, _, (x, y) = cv2.minMaxLoc(resp)
-            second = _second_peak(resp, x, y, min(tsmall.shape))
+            second = _second_peak(resp, x, y, min(tsmall.shape) // 2)
             # top-left corner at full working resolution, then a local search around it
             x0, y0 = round((x + 0.5) * f - 0.5), round((y + 0.5) * f - 0.5)
             center, score, _ = self._search_window(grey, template, x0, y0, self.window + f)
             return Match(center=center, score=score, second=float(second))
         resp = np.nan_to_num(cv2.matchTemplate(grey, template, cv2.TM_CCOEFF_NORMED), nan=-1.0)
         _, score, _, (x, y) = cv2.minMaxLoc(resp)
-        second = _second_peak(resp, x, y, min(th, tw))
+        second = _second_peak(resp, x, y, min(th, tw) // 2)
         sx, sy = _subpixel(resp, x, y)
         center = np.array([sx + (tw - 1) / 2.0, sy + (th - 1) / 2.0])
         return Match(center=center, score=float(score), second=float(second))

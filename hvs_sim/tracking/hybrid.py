@@ -30,10 +30,20 @@ LK, residual), the OP_t gate, and motion sources tried in order on frames that a
 changes from frame to frame, and its four transitions — aligned, measured, predicted, lost — are
 the only way it changes.
 
+A re-acquisition (after `lost`, a cut, or REACQUIRE_AFTER frames without an alignment) must pass several
+checks, not the NCC score alone: the whole aligned patch's NCC with the template within APPEARANCE_SLACK of this
+track's own confident alignments; and either a place the measured surroundings agree with, or a unique match (no
+look-alike beyond half the template's side, which also catches a kerb's look-alike along it) seen at one place on
+`reacquire_frames` consecutive frames. An unrelated shot's facade that scores 0.6–0.7 is refused; so is a
+look-alike 35 px along a weakly textured target after many predicted frames, which the predictor's growing bound
+used to take in. Every `lost` episode says why in the tracker's notes (`hvs-sim track` prints them).
+
 The extrapolating predictor is bounded: after `max_predict_frames` consecutive frames with neither
 an alignment nor a background measurement (default 45, 1.5 s at 30 Hz) the mode becomes "lost" and
 the estimate stops moving until re-acquisition. A scene cut (`cut_ncc`) and `max_unaligned_frames`
-without an alignment also end in "lost", whatever the surroundings say.
+without an alignment also end in "lost", whatever the surroundings say; so does `max_predict_frames` without an
+alignment while `auto` has not yet decided the target's motion (a target that moves or changes shape is not where
+its surroundings put it: the box would stay frozen on the background).
 
 All of the above takes the target to be fixed in the scene (`target_motion="static"`, the servo loop's case). For
 footage whose target moves on its own, `"moving"` drops the surroundings (the predictor alone fills gaps, and a far
@@ -44,18 +54,35 @@ jump from where the target's own motion puts it needs a unique match); `"auto"` 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from collections import deque
 
 import cv2
 import numpy as np
 
-from hvs_sim.errors import ConfigError
-from hvs_sim.tracking.aligner import Aligner, DeepLKConfig
-from hvs_sim.tracking.background import BackgroundConfig
+from hvs_sim.tracking.aligner import RECTIFY_DEG, RECTIFY_SCALE, Aligner
 from hvs_sim.tracking.base import Estimate, Mode, Tracker
-from hvs_sim.tracking.feature_lk import LKConfig
+from hvs_sim.tracking.hybrid_config import (  # noqa: F401  (HybridConfig and its constants, importable from here)
+    APPEARANCE_HISTORY,
+    APPEARANCE_MIN_SHOWN,
+    APPEARANCE_RECORD_OCC,
+    APPEARANCE_SLACK,
+    CONFIDENCE_HALF_LIFE,
+    CUT_MIN_CONTRAST,
+    CUT_THUMB,
+    HOMOGRAPHY_LK_EPS,
+    HYBRID_LK,
+    HYBRID_LK_HOMOGRAPHY,
+    HYBRID_MARGIN,
+    LOST_NOTES,
+    PREDICTED_CONFIDENCE,
+    REACQUIRE_AFTER,
+    SURROUNDINGS_GUESSES,
+    TARGET_MOTIONS,
+    HybridConfig,
+    hybrid_deep_config,
+)
 from hvs_sim.tracking.occlusion import OcclusionReference, aligned_patch
-from hvs_sim.tracking.predictors import PREDICTORS, make_predictor
+from hvs_sim.tracking.predictors import make_predictor
 from hvs_sim.tracking.sources import (
     HybridState,
     KeyframeAnchorSource,
@@ -65,33 +92,7 @@ from hvs_sim.tracking.sources import (
     SceneMotionSource,
 )
 from hvs_sim.tracking.trackability import check_trackable
-from hvs_sim.tracking.warp import matrix_to_pose, translate
-from hvs_sim.validate import check_flags
-
-# The hybrid's feature LK (README, tracker speed). The global match seeds it within about a work pixel on
-# every frame it aligns, so it starts at pool1 (stride 2) without pool2's wider basin, which cost the
-# conv2 layers and a third of the LK; and it runs in the 8-channel subspace of the template's principal
-# feature gradients (LKConfig.channels). A 5 px margin (8 for deep_lk) still leaves 2 px beyond the
-# LK's border for the alignment to move; the global searches run only when a search near the estimate does
-# not confirm it (Aligner.coarse). It stops a level at an update of 1e-2 × stride work px (3e-2 before the
-# last level; deep_lk: 2e-3 and 1e-2): on the speed benchmark's frames the aligned corners moved by 0.003 px
-# (median; at most 0.009) and an alignment took 6.8 iterations instead of 9.2 (README, hybrid speed). The
-# residual variants keep deep_lk's alignment: the regressor reads pool2.
-HYBRID_LK = LKConfig(levels=("pool1", "conv1_2"), iterations=(15, 8), channels=8, eps=1e-2, coarse_eps=3e-2)
-# With the homography, the intensity refinement (Aligner.refine_intensity, intensity_ic.py) takes the LK's answer to
-# the full-resolution optimum, so conv1_2 only has to bring it within that refinement's reach: 3 iterations there
-# instead of up to 8 (5.4 on average). On the speed benchmark's frames that took ~0.5 ms off the homography
-# hybrid's median, and the corners on warped photos and tilted hand-held sequences stayed where 8 left them (within
-# 0.003 px in the median; README, homography). pool1 alone was faster again but ended 3–11 px off on a tenth of the
-# warped photos, from the identity. For the same reason each level stops sooner than the similarity's: pool1 lands
-# 0.3–0.6 work px from conv1_2's optimum (its first update there), so it stops at 0.2 px (0.1 × its stride), and
-# conv1_2's updates run ~0.5, 0.07, 0.015 px, so it stops at 0.1 px and the refinement takes the rest in a cheaper
-# step. On bench_homography's tilted hand-held sequences that took the homography's cost from 1.44 to 1.24–1.31× the
-# similarity's (with the cheaper per-frame steps beside it), the errors there and on the warped photos within
-# 0.01 px (docs/tuning.md).
-HOMOGRAPHY_LK_EPS = 0.1
-HYBRID_LK_HOMOGRAPHY = replace(HYBRID_LK, iterations=(15, 3), eps=HOMOGRAPHY_LK_EPS, coarse_eps=HOMOGRAPHY_LK_EPS)
-HYBRID_MARGIN = 5
+from hvs_sim.tracking.warp import apply, matrix_to_pose, pose_to_matrix, translate
 
 
 def _thumb(work: np.ndarray) -> np.ndarray | None:
@@ -104,142 +105,12 @@ def _thumb(work: np.ndarray) -> np.ndarray | None:
     return None if norm < CUT_MIN_CONTRAST * np.sqrt(t.size) else t / norm
 
 
-def hybrid_deep_config(residual: bool = False, warp: str = "similarity") -> DeepLKConfig:
-    """The hybrid's default alignment settings: the fast LK above (for `warp`), or, with the residual regressor,
-    deep_lk's (pool2 → pool1 → conv1_2 on all channels)."""
-    if residual:
-        return DeepLKConfig()
-    lk = HYBRID_LK_HOMOGRAPHY if warp == "homography" else HYBRID_LK
-    return DeepLKConfig(lk=lk, margin=HYBRID_MARGIN, always_search_as_taken=False, search_near_first=True,
-                        intensity_smooth="frame")
-
-
-TARGET_MOTIONS = ("static", "moving", "auto")  # HybridConfig.target_motion
-CUT_THUMB = (32, 24)  # the thumbnail two frames are compared on for a scene cut (w, h)
-CUT_MIN_CONTRAST = 2.0 / 255  # a thumbnail with less RMS contrast (intensity in [0, 1]) has nothing to compare
-
-# predictor frames since the last alignment or re-anchoring after which the estimate is no longer the surroundings'
-# (HybridConfig.surroundings_veto_frames): half a second of guesses. A shirt printed with the scene's texture left the
-# chain unmeasured for 6 frames before its far match came (natural benchmark, `lookalike`); a jump within the
-# predictor's possible drift is accepted anyway (HybridConfig.reacquire_px, background_gate_px)
-SURROUNDINGS_GUESSES = 15
-CONFIDENCE_HALF_LIFE = 30  # frames (1 s at 30 Hz) since the last alignment over which an unaligned pose's confidence halves
-PREDICTED_CONFIDENCE = 0.5  # a predictor's guess, relative to a measurement of the scene's motion
-
-
-@dataclass(frozen=True)
-class HybridConfig:
-    # the residual regressor is off: on held-out data it did not earn its place (README, learned modules)
-    deep: DeepLKConfig = field(default_factory=hybrid_deep_config)
-    occlusion_gate: float = 0.4
-    predictor: str = "gru"
-    history: int = 10
-    max_predict_frames: int = 45
-    gru_weights: str | None = None
-    # True: a seed that continues the current track and passes the OP_t gate needs no NCC score
-    # (partial occlusion drags the score below 0.6). Measured: more frames aligned under partial
-    # occlusion but drift onto the occluder in others (README, tracking benchmark), so the paper's
-    # rule (score ≥ 0.6 always) stays the default.
-    continuity: bool = False
-    colour_occlusion: bool = True  # OP_t over colour channels (occlusion.py); False: grey, as the paper
-    # a confident seed whose OP_t fails the gate is aligned anyway, and the frame counts as aligned when OP_t at the
-    # aligned pose passes it (a change to the paper, which gates on the seed alone). OP_t at a seed that is off by a
-    # few pixels counts the misalignment as occlusion: a sharp photo under a 4 px perspective warp read 0.41 at the
-    # seed and 0.02 once aligned (README, homography). An occluder that pulls LK away leaves OP_t high where LK ended.
-    gate_after_alignment: bool = True
-    background: bool = True  # predict from the surroundings' similarity motion first (module docstring)
-    # most a background-measured position may differ from the last estimate (px, per frame since
-    # the last measurement); 8 px let a wrong 17 px jump through on a validation sequence (README)
-    background_gate_px: float = 4.0
-    background_config: BackgroundConfig = field(default_factory=BackgroundConfig)
-    reanchor: bool = True  # after predictor-only frames, measure against aligned keyframes (KeyframeAnchor)
-    # verified re-acquisition (a change to the paper): an alignment further than `reacquire_px` (plus
-    # `background_gate_px` per unmeasured frame, plus `reacquire_drift_px` per frame since the last
-    # alignment: the scene-motion chain drifts as it grows) from where the motion sources put the target is
-    # accepted only when the global match is unique (best NCC − second-best peak ≥ `reacquire_margin`)
-    # and the same jump is seen on `reacquire_frames` consecutive frames. On self-similar texture (fur,
-    # gravel) the NCC peak can sit on a look-alike patch while the target is hidden.
-    verify_reacquisition: bool = True
-    reacquire_px: float = 8.0
-    # a 60-frame chain through a person filling the view ended 10.8 px off on a validation sequence
-    # (pause seed 110), and a stricter bound kept the visible target from being re-acquired
-    reacquire_drift_px: float = 0.5
-    reacquire_margin: float = 0.1
-    reacquire_frames: int = 3
-    # a static target's far jump that the surroundings contradict: while the frames since the last alignment were
-    # measured on the surroundings (at most SURROUNDINGS_GUESSES predictor guesses, no seed), they say where the
-    # target is, and a unique match far from there is a look-alike (clothing printed with the scene's own texture,
-    # paused over the target), refused until seen on this many consecutive frames (3 s at 30 Hz: a chain that went
-    # wrong is not held forever). 0: off (docs/results.md, harder occluders)
-    surroundings_veto_frames: int = 90
-    # what the target does: "static" (fixed in the scene, the servo case: the surroundings' motion is its motion, and
-    # a far jump must be verified), "moving" (it moves on its own, as footage often shows: a confident match is never
-    # vetoed by the surroundings, and the predictor extrapolates the target's own motion), or "auto": "moving" for
-    # the first `auto_frames` aligned frames, then whichever the net offset of the aligned target from where the
-    # surroundings' motion put it says (over `moving_px`: moving). The choice is in the tracker's `notes`.
-    target_motion: str = "static"
-    auto_frames: int = 15
-    moving_px: float = 6.0
-    # a scene cut: the frame's thumbnail correlates below `cut_ncc` with the previous one and the target is not found;
-    # the estimate is then lost (the surroundings' chain cannot cross a cut) until the target is aligned again
-    cut_ncc: float = 0.3
-    # a long run without an alignment ends in `lost`, whatever the surroundings say (10 s at 30 Hz)
-    max_unaligned_frames: int = 300
-
-    @classmethod
-    def for_warp(cls, label: str = "hybrid", /, **settings) -> HybridConfig:
-        """The hybrid's defaults for its warp model (`warp`, `residual` among `settings`), with `settings`
-        (HybridConfig fields, and DeepLKConfig fields for the alignment) changed: the one place they are built and
-        checked. `make_tracker("hybrid", ...)` and the registry's variants come here, so every way of asking for a
-        hybrid gives the same tracker; `HybridConfig(deep=...)` takes an alignment config whole, every field as
-        given. `label` (positional) names the tracker in an error, e.g. a registry variant."""
-        from dataclasses import fields
-
-        hybrid_keys = {f.name for f in fields(cls)} - {"deep"}
-        deep_keys = {f.name for f in fields(DeepLKConfig)}
-        unknown = set(settings) - hybrid_keys - deep_keys
-        if unknown:
-            raise ConfigError(f"{label}: unknown setting(s) {', '.join(sorted(unknown))}; accepted: "
-                              f"{', '.join(sorted(hybrid_keys | deep_keys))}")
-        base = hybrid_deep_config(residual=bool(settings.get("residual", False)),
-                                  warp=settings.get("warp", "similarity"))
-        deep = replace(base, **{k: v for k, v in settings.items() if k in deep_keys})
-        return cls(deep=deep, **{k: v for k, v in settings.items() if k in hybrid_keys})
-
-    def __post_init__(self):
-        check_flags(self, ("continuity", "colour_occlusion", "gate_after_alignment", "background", "reanchor",
-                           "verify_reacquisition"))
-        if not 0 < self.occlusion_gate <= 1:
-            raise ConfigError(f"occlusion_gate must be in (0, 1], got {self.occlusion_gate}")
-        if self.predictor not in PREDICTORS:
-            raise ConfigError(f"unknown predictor {self.predictor!r}; accepted: {', '.join(PREDICTORS)}")
-        if not self.background_gate_px > 0:
-            raise ConfigError(f"background_gate_px must be > 0, got {self.background_gate_px}")
-        if not isinstance(self.max_predict_frames, int) or self.max_predict_frames < 1:
-            raise ConfigError(f"max_predict_frames must be an int >= 1, got {self.max_predict_frames!r}")
-        if not (self.reacquire_px > 0 and self.reacquire_drift_px >= 0 and 0 <= self.reacquire_margin < 1):
-            raise ConfigError(f"need reacquire_px > 0, reacquire_drift_px >= 0 and reacquire_margin in [0, 1), got "
-                              f"{self.reacquire_px}, {self.reacquire_drift_px}, {self.reacquire_margin}")
-        if not isinstance(self.reacquire_frames, int) or self.reacquire_frames < 1:
-            raise ConfigError(f"reacquire_frames must be an int >= 1, got {self.reacquire_frames!r}")
-        v = self.surroundings_veto_frames
-        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-            raise ConfigError(f"surroundings_veto_frames must be an int >= 0 (0: off), got {v!r}")
-        if self.target_motion not in TARGET_MOTIONS:
-            raise ConfigError(f"target_motion must be one of {', '.join(TARGET_MOTIONS)}, got {self.target_motion!r}")
-        for name in ("auto_frames", "max_unaligned_frames"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ConfigError(f"{name} must be an int >= 1, got {value!r}")
-        if not (self.moving_px > 0 and -1 <= self.cut_ncc < 1):
-            raise ConfigError(f"need moving_px > 0 and cut_ncc in [-1, 1), got {self.moving_px}, {self.cut_ncc}")
-
-
 class HybridTracker(Tracker):
     name = "hybrid"
 
-    def __init__(self, config: HybridConfig = HybridConfig()):
+    def __init__(self, config: HybridConfig | None = None):
         super().__init__()
+        config = HybridConfig() if config is None else config
         self.hconfig = config
         self.config = config.deep
         self.aligner = Aligner(config.deep)
@@ -277,6 +148,8 @@ class HybridTracker(Tracker):
         c = self.hconfig
         self.target_motion = None if c.target_motion == "auto" else c.target_motion
         self._evidence, self._evidence_frames, self._aligned_frames = np.zeros(2), 0, 0
+        self._appearance_seen: deque[float] = deque(maxlen=APPEARANCE_HISTORY)  # confident alignments' appearance
+        self._lost_episodes = 0  # `lost` episodes begun (LOST_NOTES of them are explained in the notes)
         self.sources = ([self.predictor_source] if self.target_motion == "moving" else
                         [*self.scene_sources, self.predictor_source])
         for s in self.sources:
@@ -310,7 +183,9 @@ class HybridTracker(Tracker):
         c, st = self.hconfig, self.state
         if not c.verify_reacquisition:
             return True
-        unique = m.score - m.second >= c.reacquire_margin  # no look-alike elsewhere: the peak stands out
+        unique = self._unique(A, m, work)
+        if st.is_lost or st.after_cut or st.since_aligned >= REACQUIRE_AFTER:
+            return self._reacquisition_verified(A, m, work, unique)
         if self.target_motion != "static":
             expected = self.predictor_source.predictor.peek()
             miss = np.linalg.norm(matrix_to_pose(A, st.center0)[:2] - expected)
@@ -326,6 +201,77 @@ class HybridTracker(Tracker):
         seen = st.jump_seen(offset, c.background_gate_px)
         held = st.scene_held and st.drift_run <= SURROUNDINGS_GUESSES
         if c.surroundings_veto_frames and held and seen < c.surroundings_veto_frames:
+            return False  # the surroundings, measured since the alignment, put the target elsewhere
+        return seen >= c.reacquire_frames
+
+    def _unique(self, A: np.ndarray, m, work: np.ndarray | None) -> bool:
+        """No look-alike elsewhere: the match's peak stands out from the rest of the frame (reacquire_margin). The
+        search used the estimate's θ and s; where the alignment found the target turned or scaled from them (a
+        camera that rolled or came closer while the target was not aligned), that template scores the true target
+        little above, or under, the look-alikes around it (0.80 against 0.84 for a view rolled 12° while hidden), so
+        the search is made again in the aligned shape, and its peak must be where the target was aligned."""
+        c, st, al = self.hconfig, self.state, self.aligner
+        if m.score - m.second >= c.reacquire_margin:
+            return True
+        if work is None:
+            return False
+        _, _, theta, scale = matrix_to_pose(A, st.center0)
+        _, _, theta_est, scale_est = matrix_to_pose(st.A, st.center0)
+        if abs(theta - theta_est) <= np.radians(RECTIFY_DEG) and abs(scale / scale_est - 1) <= RECTIFY_SCALE:
+            return False  # searched in this shape already
+        # the template rectified by A's θ and s (as Aligner.rectified_template, whose cached one is left as it is)
+        R = pose_to_matrix((0.0, 0.0, -theta, 1.0 / scale), al.c_work)
+        again = al.matcher.match(work, al.template_patch(al.init_work, R))
+        centre = apply(al.to_work(A), al.c_work[None])[0]
+        return (again.score - again.second >= c.reacquire_margin
+                and bool(np.linalg.norm(again.center - centre) <= c.reacquire_px * self.config.scale))
+
+    def _appearance(self, work: np.ndarray, A_work: np.ndarray) -> float:
+        """The template's NCC with the whole patch A_work aligns (grey, work px; -1 when under APPEARANCE_MIN_SHOWN of
+        it is in the frame). Unlike OP_t it is blind to contrast, and unlike a masked measure it counts every pixel:
+        a grey roof hatch and a grey facade differ by less than τ everywhere, and a half-faded copy of the target
+        keeps most pixels within τ, yet the NCC of either with the template is low."""
+        al = self.aligner
+        patch, inside = aligned_patch(work, A_work, al.t_origin, (al.th, al.tw))
+        if inside.mean() < APPEARANCE_MIN_SHOWN:
+            return -1.0
+        p, t = patch.astype(np.float32)[inside], al.template.astype(np.float32)[inside]
+        a, b = p - p.mean(), t - t.mean()
+        den = float(np.sqrt((a @ a) * (b @ b)))
+        return float(a @ b) / den if den > 1e-9 else -1.0
+
+    def _looks_like_target(self, work: np.ndarray, A: np.ndarray) -> bool:
+        """Whether the patch at A (full res) shows the target as this track's confident alignments showed it
+        (_appearance within APPEARANCE_SLACK of their median, and at least the match threshold)."""
+        seen = float(np.median(self._appearance_seen)) if self._appearance_seen else 1.0
+        bar = max(self.config.match_threshold, seen - APPEARANCE_SLACK)
+        return self._appearance(work, self.aligner.to_work(A)) >= bar
+
+    def _reacquisition_verified(self, A: np.ndarray, m, work: np.ndarray | None, unique: bool) -> bool:
+        """A re-acquisition (REACQUIRE_AFTER): the target found again after a loss, a cut or a long gap. Every
+        check must agree: the aligned patch looks like the target (_looks_like_target); and either it lies where
+        the surroundings, measured on these frames, put the target (a static target, not lost), or the match is
+        unique (no look-alike within the frame, nor along a weakly textured target's own direction) and seen at one
+        place on `reacquire_frames` consecutive frames. Distance from a guess is no evidence: after many
+        predicted frames the predictor's bound would take in any look-alike nearby."""
+        c, st = self.hconfig, self.state
+        if work is None or not self._looks_like_target(work, A):
+            st.jump_seen(None, 0.0)
+            return False
+        offset = matrix_to_pose(A, st.center0)[:2] - matrix_to_pose(st.A, st.center0)[:2]
+        measured = (self.target_motion == "static" and not (st.is_lost or st.after_cut) and st.scene_held
+                    and st.drift_run <= SURROUNDINGS_GUESSES)
+        if measured and (np.linalg.norm(offset) <= c.reacquire_px + c.reacquire_drift_px * st.since_aligned
+                         or self._surroundings_agree(A, work)):
+            st.jump_seen(None, 0.0)
+            return True
+        if not unique:
+            st.jump_seen(None, 0.0)
+            return False
+        # a static target's estimate follows the view, so the same place keeps its offset; a moving one's may not
+        tolerance = c.background_gate_px if self.target_motion == "static" else c.reacquire_px
+        seen = st.jump_seen(offset, tolerance)
+        if measured and c.surroundings_veto_frames and seen < c.surroundings_veto_frames:
             return False  # the surroundings, measured since the alignment, put the target elsewhere
         return seen >= c.reacquire_frames
 
@@ -374,6 +320,8 @@ class HybridTracker(Tracker):
         t0 = time.perf_counter()
         work = al.work_image(frame)
         cut = st.saw(_thumb(work)) < self.hconfig.cut_ncc  # nothing of the last frame is in this one
+        if cut and self.target_motion is None:  # `auto`'s evidence compares with the surroundings, which a cut ends
+            self._evidence, self._evidence_frames = np.zeros(2), 0
         t1 = time.perf_counter()
         m, A_seed, occ, is_current = al.coarse(work, st.A)
         t2 = time.perf_counter()
@@ -385,7 +333,9 @@ class HybridTracker(Tracker):
         gate = self.hconfig.occlusion_gate
         confident = m.score > 0 and (m.score >= self.config.match_threshold or (self.hconfig.continuity and is_current))
         if confident and (occ < gate or self.hconfig.gate_after_alignment):
-            A_new = al.align(work, A_seed, None if is_current else al.to_work(st.A)).A_work
+            # θ and s may continue the estimate's, last measured (aligned, or carried by the surroundings' motion)
+            # drift_run + 1 frames ago: the predictor's guesses carry neither (Aligner.align)
+            A_new = al.align(work, A_seed, al.to_work(st.A), frames=st.drift_run + 1).A_work
             occ_aligned = occ
             if A_new is not None and occ >= gate:  # gated again where the target was aligned (gate_after_alignment)
                 grey = None if self.colour_reference is not None else al.occlusion(work, A_new)
@@ -393,6 +343,8 @@ class HybridTracker(Tracker):
                 if occ_aligned >= gate:
                     A_new = None
             if A_new is not None and self._verified(al.to_full(A_new), m, work):
+                if occ_aligned <= APPEARANCE_RECORD_OCC:  # what the target looks like when surely found
+                    self._appearance_seen.append(self._appearance(work, A_new))
                 if self.target_motion is None:
                     self._judge_motion(work, al.to_full(A_new))
                 st.aligned(work, al.to_full(A_new), self.sources)
@@ -402,9 +354,27 @@ class HybridTracker(Tracker):
         else:
             st.jump_seen(None, 0.0)
         t4 = time.perf_counter()
+        if is_current:  # OP_t at the estimate: how much of the target the occluder covers (background.COVERED_OP)
+            st.hidden_share = occ
+        else:
+            A_est = al.to_work(st.A)
+            st.hidden_share = self._occlusion_at(frame, A_est, None if self.colour_reference is not None
+                                                 else al.occlusion(work, A_est))
         est = self._predict(work, occ, m, cut)
         self.stage_ms["sources"] = 1e3 * (time.perf_counter() - t4)
         return est
+
+    def _lost(self, work: np.ndarray, reason: str, cut: bool) -> None:
+        """The `lost` transition; the first frame of a `lost` episode says why in the notes (LOST_NOTES of them)."""
+        st = self.state
+        if not st.is_lost:
+            self._lost_episodes += 1
+            if self._lost_episodes <= LOST_NOTES:
+                self.notes.append(f"lost at frame {st.frame_index}: {reason}; the target's appearance last matched "
+                                  f"its template {st.since_aligned} frames before")
+            elif self._lost_episodes == LOST_NOTES + 1:
+                self.notes.append(f"lost again from frame {st.frame_index} (later episodes are not listed)")
+        st.lost(work, self.sources, cut=cut)
 
     def _predict(self, work: np.ndarray, occ: float, m, cut: bool) -> Estimate:
         """The first motion source with a proposal moves the estimate (module docstring); after a scene cut, or too
@@ -415,8 +385,19 @@ class HybridTracker(Tracker):
             if proposal is not None:
                 st.measured(work, proposal, self.sources)
                 return Estimate(st.A, proposal.mode, occ, m.score, self._unaligned_confidence(proposal.kind))
-        if cut or st.after_cut or st.since_aligned >= self.hconfig.max_unaligned_frames:
-            st.lost(work, self.sources, cut=cut)
+        c = self.hconfig
+        reason = None
+        if cut or st.after_cut:
+            reason = "a scene cut (the frame shares nothing with the one before)"
+        elif st.since_aligned >= c.max_unaligned_frames:
+            reason = f"not aligned for {st.since_aligned} frames, whatever the surroundings say"
+        elif self.target_motion is None and st.since_aligned >= c.max_predict_frames:
+            # `auto` has not yet seen the target stay put in its surroundings: their motion is no more its motion
+            # than a guess, and a target that moves or changes shape is not where they put it
+            reason = (f"not aligned for {st.since_aligned} frames while its motion was still undecided: the "
+                      "surroundings cannot say where it is")
+        if reason is not None:
+            self._lost(work, reason, cut)
             return Estimate(st.A, Mode.LOST, occ, m.score, 0.0)
         for source in self.sources:
             proposal = source.propose(work, st)
@@ -424,7 +405,7 @@ class HybridTracker(Tracker):
                 continue
             if proposal.kind == Kind.PREDICTED:
                 if proposal.mode == Mode.LOST:
-                    st.lost(work, self.sources)
+                    self._lost(work, f"nothing measured its position for {st.predict_run} frames", False)
                 else:
                     st.predicted(work, proposal.A, self.sources)
             else:

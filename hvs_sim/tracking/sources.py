@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
-from hvs_sim.tracking.background import BackgroundConfig, BackgroundMotion, KeyframeAnchor
+from hvs_sim.tracking.background import COVERED_OP, BackgroundConfig, BackgroundMotion, KeyframeAnchor
 from hvs_sim.tracking.base import Mode
 from hvs_sim.tracking.predictors import MotionPredictor
 from hvs_sim.tracking.warp import apply, matrix_to_pose, translate
@@ -63,6 +63,9 @@ def _translation(A: np.ndarray, center0: np.ndarray) -> np.ndarray:
     return matrix_to_pose(A, center0)[:2]
 
 
+ANCHOR_DRIFT_PX = 0.5  # px a frame the scene's chain may have drifted since the last alignment (KeyframeAnchorSource)
+
+
 class KeyframeAnchorSource:
     """Absolute re-measurement after predictor-only frames; its jump is bounded by the predictor's
     possible drift (`gate_px` per unmeasured frame)."""
@@ -78,14 +81,19 @@ class KeyframeAnchorSource:
         self.anchor.add(state.keyframe[0], self.aligner.to_work(state.keyframe[1]), 0)
 
     def propose(self, work, state):
-        if state.drift_run == 0:
+        # after predictor-only frames: the keyframes' planes, else their pooled similarity; on the other unaligned
+        # frames the planes alone (BackgroundConfig.anchor_plane): an absolute measurement where the chain of hops
+        # drifts (2-10 px over a 3 s occlusion of a hand-held view, handheld photos' dev split)
+        if state.drift_run == 0 and not self.anchor.config.anchor_plane:
             return None
-        M = self.anchor.update(work, self.aligner.to_work(state.A))
+        predicted = self.aligner.to_work(state.A)
+        M = self.anchor.plane(work, predicted) if state.drift_run == 0 else self.anchor.update(work, predicted)
         if M is None:
             return None
         A = self.aligner.to_full(M)
         moved = np.linalg.norm(_translation(A, state.center0) - _translation(state.A, state.center0))
-        if moved > self.gate_px * (1 + state.drift_run):  # the predictor's drift bounds the jump
+        # the predictor's drift bounds the jump, and the chain's (ANCHOR_DRIFT_PX a frame since the last alignment)
+        if moved > self.gate_px * (1 + state.drift_run) + ANCHOR_DRIFT_PX * state.since_aligned:
             return None
         return Proposal(A, Kind.ABSOLUTE, Mode.PREDICT, self.name)
 
@@ -130,6 +138,7 @@ class SceneMotionSource:
         (HybridTracker._verified)."""
         key_work, A_key = self.key
         hidden = apply(self.aligner.S @ state.A, state.corners0)
+        self.motion.covered = state.hidden_share >= COVERED_OP
         if peek:
             M = self.motion.peek(key_work, work, hidden)
         else:
@@ -219,6 +228,8 @@ class HybridState:
     jump_frames: int = 0
     thumb: np.ndarray | None = None  # the last frame's thumbnail (HybridTracker's cut test)
     after_cut: bool = False  # a scene cut was seen and the target not aligned since: lost
+    hidden_share: float = 0.0  # OP_t at the estimate on this frame, when it is not aligned (background.COVERED_OP)
+    is_lost: bool = False  # the last frame was `lost` (nothing says where the target is until it is aligned again)
     # the estimate comes from this tracker's own alignments and measurements of the scene, not from a pose given from
     # outside (Tracker.seed); with few predictor frames since (drift_run) it is the surroundings' (HybridTracker._verified)
     scene_held: bool = True
@@ -244,7 +255,7 @@ class HybridState:
         self.A = A
         self.predict_run = self.drift_run = self.since_aligned = 0
         self.jump, self.jump_frames = None, 0
-        self.after_cut = False
+        self.after_cut = self.is_lost = False
         self.scene_held = True
         self.keyframe = (work, A)
         for s in sources:
@@ -253,6 +264,7 @@ class HybridState:
     def measured(self, work: np.ndarray, proposal: Proposal, sources: list[MotionSource]) -> None:
         self.A = proposal.A
         self.predict_run = 0
+        self.is_lost = False
         self.after_cut = self.after_cut and proposal.kind != Kind.ABSOLUTE  # the old view, found again
         self.since_aligned += 1
         if proposal.kind == Kind.ABSOLUTE:  # the chain goes on from here
@@ -264,6 +276,7 @@ class HybridState:
 
     def predicted(self, work: np.ndarray, A: np.ndarray, sources: list[MotionSource]) -> None:
         self.A = A
+        self.is_lost = False
         self.predict_run += 1
         self.drift_run += 1
         self.since_aligned += 1
@@ -274,3 +287,4 @@ class HybridState:
         """Nothing trustworthy: the estimate stays where it is (after a scene cut, until the next alignment)."""
         self.after_cut = self.after_cut or cut
         self.predicted(work, self.A, sources)
+        self.is_lost = True

@@ -1,0 +1,179 @@
+"""The hybrid tracker's settings (HybridConfig) and the tuned constants they default to, apart from the tracker
+(tracking/hybrid.py) that reads them: what the hybrid does with each is said there and in docs/tuning.md."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+from hvs_sim.errors import ConfigError
+from hvs_sim.tracking.aligner import DeepLKConfig
+from hvs_sim.tracking.background import BackgroundConfig
+from hvs_sim.tracking.feature_lk import LKConfig
+from hvs_sim.tracking.predictors import PREDICTORS
+from hvs_sim.validate import check_flags
+
+# The hybrid's feature LK (README, tracker speed). The global match seeds it within about a work pixel on
+# every frame it aligns, so it starts at pool1 (stride 2) without pool2's wider basin, which cost the
+# conv2 layers and a third of the LK; and it runs in the 8-channel subspace of the template's principal
+# feature gradients (LKConfig.channels). A 5 px margin (8 for deep_lk) still leaves 2 px beyond the
+# LK's border for the alignment to move; the global searches run only when a search near the estimate does
+# not confirm it (Aligner.coarse). It stops a level at an update of 1e-2 × stride work px (3e-2 before the
+# last level; deep_lk: 2e-3 and 1e-2): on the speed benchmark's frames the aligned corners moved by 0.003 px
+# (median; at most 0.009) and an alignment took 6.8 iterations instead of 9.2 (README, hybrid speed). The
+# residual variants keep deep_lk's alignment: the regressor reads pool2.
+HYBRID_LK = LKConfig(levels=("pool1", "conv1_2"), iterations=(15, 8), channels=8, eps=1e-2, coarse_eps=3e-2)
+# With the homography, the intensity refinement (Aligner.refine_intensity, intensity_ic.py) takes the LK's answer to
+# the full-resolution optimum, so conv1_2 only has to bring it within that refinement's reach: 3 iterations there
+# instead of up to 8 (5.4 on average). On the speed benchmark's frames that took ~0.5 ms off the homography
+# hybrid's median, and the corners on warped photos and tilted hand-held sequences stayed where 8 left them (within
+# 0.003 px in the median; README, homography). pool1 alone was faster again but ended 3–11 px off on a tenth of the
+# warped photos, from the identity. For the same reason each level stops sooner than the similarity's: pool1 lands
+# 0.3–0.6 work px from conv1_2's optimum (its first update there), so it stops at 0.2 px (0.1 × its stride), and
+# conv1_2's updates run ~0.5, 0.07, 0.015 px, so it stops at 0.1 px and the refinement takes the rest in a cheaper
+# step. On bench_homography's tilted hand-held sequences that took the homography's cost from 1.44 to 1.24–1.31× the
+# similarity's (with the cheaper per-frame steps beside it), the errors there and on the warped photos within
+# 0.01 px (docs/tuning.md).
+HOMOGRAPHY_LK_EPS = 0.1
+HYBRID_LK_HOMOGRAPHY = replace(HYBRID_LK, iterations=(15, 3), eps=HOMOGRAPHY_LK_EPS, coarse_eps=HOMOGRAPHY_LK_EPS)
+HYBRID_MARGIN = 5
+
+
+def hybrid_deep_config(residual: bool = False, warp: str = "similarity") -> DeepLKConfig:
+    """The hybrid's default alignment settings: the fast LK above (for `warp`), or, with the residual regressor,
+    deep_lk's (pool2 → pool1 → conv1_2 on all channels)."""
+    if residual:
+        return DeepLKConfig()
+    lk = HYBRID_LK_HOMOGRAPHY if warp == "homography" else HYBRID_LK
+    return DeepLKConfig(lk=lk, margin=HYBRID_MARGIN, always_search_as_taken=False, search_near_first=True,
+                        intensity_smooth="frame")
+
+
+TARGET_MOTIONS = ("static", "moving", "auto")  # HybridConfig.target_motion
+CUT_THUMB = (32, 24)  # the thumbnail two frames are compared on for a scene cut (w, h)
+CUT_MIN_CONTRAST = 2.0 / 255  # a thumbnail with less RMS contrast (intensity in [0, 1]) has nothing to compare
+
+# predictor frames since the last alignment or re-anchoring after which the estimate is no longer the surroundings'
+# (HybridConfig.surroundings_veto_frames): half a second of guesses. A shirt printed with the scene's texture left the
+# chain unmeasured for 6 frames before its far match came (natural benchmark, `lookalike`); a jump within the
+# predictor's possible drift is accepted anyway (HybridConfig.reacquire_px, background_gate_px)
+SURROUNDINGS_GUESSES = 15
+# a re-acquisition (HybridTracker._reacquisition_verified): an alignment after the target was lost, after a cut, or
+# after this many frames without an alignment (half a second) must pass every check, not the score alone
+REACQUIRE_AFTER = 15
+# ... one of them: the template's NCC with the whole aligned patch (at least APPEARANCE_MIN_SHOWN of it in the frame),
+# within APPEARANCE_SLACK of what this track's own confident alignments measured
+APPEARANCE_SLACK = 0.15
+APPEARANCE_MIN_SHOWN = 0.6
+APPEARANCE_HISTORY = 30  # confident alignments whose appearance NCC sets that reference (their median)
+APPEARANCE_RECORD_OCC = 0.1  # an alignment with OP_t up to this is confident enough to set it
+LOST_NOTES = 5  # `lost` episodes explained in the tracker's notes, one line each; later ones are counted
+CONFIDENCE_HALF_LIFE = 30  # frames (1 s at 30 Hz) since the last alignment over which an unaligned pose's confidence halves
+PREDICTED_CONFIDENCE = 0.5  # a predictor's guess, relative to a measurement of the scene's motion
+
+
+@dataclass(frozen=True)
+class HybridConfig:
+    # the residual regressor is off: on held-out data it did not earn its place (README, learned modules)
+    deep: DeepLKConfig = field(default_factory=hybrid_deep_config)
+    occlusion_gate: float = 0.4
+    predictor: str = "gru"
+    history: int = 10
+    max_predict_frames: int = 45
+    gru_weights: str | None = None
+    # True: a seed that continues the current track and passes the OP_t gate needs no NCC score
+    # (partial occlusion drags the score below 0.6). Measured: more frames aligned under partial
+    # occlusion but drift onto the occluder in others (README, tracking benchmark), so the paper's
+    # rule (score ≥ 0.6 always) stays the default.
+    continuity: bool = False
+    colour_occlusion: bool = True  # OP_t over colour channels (occlusion.py); False: grey, as the paper
+    # a confident seed whose OP_t fails the gate is aligned anyway, and the frame counts as aligned when OP_t at the
+    # aligned pose passes it (a change to the paper, which gates on the seed alone). OP_t at a seed that is off by a
+    # few pixels counts the misalignment as occlusion: a sharp photo under a 4 px perspective warp read 0.41 at the
+    # seed and 0.02 once aligned (README, homography). An occluder that pulls LK away leaves OP_t high where LK ended.
+    gate_after_alignment: bool = True
+    background: bool = True  # predict from the surroundings' similarity motion first (module docstring)
+    # most a background-measured position may differ from the last estimate (px, per frame since
+    # the last measurement); 8 px let a wrong 17 px jump through on a validation sequence (README)
+    background_gate_px: float = 4.0
+    background_config: BackgroundConfig = field(default_factory=BackgroundConfig)
+    reanchor: bool = True  # after predictor-only frames, measure against aligned keyframes (KeyframeAnchor)
+    # verified re-acquisition (a change to the paper): an alignment further than `reacquire_px` (plus
+    # `background_gate_px` per unmeasured frame, plus `reacquire_drift_px` per frame since the last
+    # alignment: the scene-motion chain drifts as it grows) from where the motion sources put the target is
+    # accepted only when the global match is unique (best NCC − second-best peak ≥ `reacquire_margin`)
+    # and the same jump is seen on `reacquire_frames` consecutive frames. On self-similar texture (fur,
+    # gravel) the NCC peak can sit on a look-alike patch while the target is hidden.
+    verify_reacquisition: bool = True
+    reacquire_px: float = 8.0
+    # a 60-frame chain through a person filling the view ended 10.8 px off on a validation sequence
+    # (pause seed 110), and a stricter bound kept the visible target from being re-acquired
+    reacquire_drift_px: float = 0.5
+    reacquire_margin: float = 0.1
+    reacquire_frames: int = 3
+    # a static target's far jump that the surroundings contradict: while the frames since the last alignment were
+    # measured on the surroundings (at most SURROUNDINGS_GUESSES predictor guesses, no seed), they say where the
+    # target is, and a unique match far from there is a look-alike (clothing printed with the scene's own texture,
+    # paused over the target), refused until seen on this many consecutive frames (3 s at 30 Hz: a chain that went
+    # wrong is not held forever). 0: off (docs/results.md, harder occluders)
+    surroundings_veto_frames: int = 90
+    # what the target does: "static" (fixed in the scene, the servo case: the surroundings' motion is its motion, and
+    # a far jump must be verified), "moving" (it moves on its own, as footage often shows: a confident match is never
+    # vetoed by the surroundings, and the predictor extrapolates the target's own motion), or "auto": "moving" for
+    # the first `auto_frames` aligned frames, then whichever the net offset of the aligned target from where the
+    # surroundings' motion put it says (over `moving_px`: moving). The choice is in the tracker's `notes`.
+    target_motion: str = "static"
+    auto_frames: int = 15
+    moving_px: float = 6.0
+    # a scene cut: the frame's thumbnail correlates below `cut_ncc` with the previous one and the target is not found;
+    # the estimate is then lost (the surroundings' chain cannot cross a cut) until the target is aligned again
+    cut_ncc: float = 0.3
+    # a long run without an alignment ends in `lost`, whatever the surroundings say (10 s at 30 Hz)
+    max_unaligned_frames: int = 300
+
+    @classmethod
+    def for_warp(cls, label: str = "hybrid", /, **settings) -> HybridConfig:
+        """The hybrid's defaults for its warp model (`warp`, `residual` among `settings`), with `settings`
+        (HybridConfig fields, and DeepLKConfig fields for the alignment) changed: the one place they are built and
+        checked. `make_tracker("hybrid", ...)` and the registry's variants come here, so every way of asking for a
+        hybrid gives the same tracker; `HybridConfig(deep=...)` takes an alignment config whole, every field as
+        given. `label` (positional) names the tracker in an error, e.g. a registry variant."""
+        from dataclasses import fields
+
+        hybrid_keys = {f.name for f in fields(cls)} - {"deep"}
+        deep_keys = {f.name for f in fields(DeepLKConfig)}
+        unknown = set(settings) - hybrid_keys - deep_keys
+        if unknown:
+            raise ConfigError(f"{label}: unknown setting(s) {', '.join(sorted(unknown))}; accepted: "
+                              f"{', '.join(sorted(hybrid_keys | deep_keys))}")
+        base = hybrid_deep_config(residual=bool(settings.get("residual", False)),
+                                  warp=settings.get("warp", "similarity"))
+        deep = replace(base, **{k: v for k, v in settings.items() if k in deep_keys})
+        return cls(deep=deep, **{k: v for k, v in settings.items() if k in hybrid_keys})
+
+    def __post_init__(self):
+        check_flags(self, ("continuity", "colour_occlusion", "gate_after_alignment", "background", "reanchor",
+                           "verify_reacquisition"))
+        if not 0 < self.occlusion_gate <= 1:
+            raise ConfigError(f"occlusion_gate must be in (0, 1], got {self.occlusion_gate}")
+        if self.predictor not in PREDICTORS:
+            raise ConfigError(f"unknown predictor {self.predictor!r}; accepted: {', '.join(PREDICTORS)}")
+        if not self.background_gate_px > 0:
+            raise ConfigError(f"background_gate_px must be > 0, got {self.background_gate_px}")
+        if not isinstance(self.max_predict_frames, int) or self.max_predict_frames < 1:
+            raise ConfigError(f"max_predict_frames must be an int >= 1, got {self.max_predict_frames!r}")
+        if not (self.reacquire_px > 0 and self.reacquire_drift_px >= 0 and 0 <= self.reacquire_margin < 1):
+            raise ConfigError(f"need reacquire_px > 0, reacquire_drift_px >= 0 and reacquire_margin in [0, 1), got "
+                              f"{self.reacquire_px}, {self.reacquire_drift_px}, {self.reacquire_margin}")
+        if not isinstance(self.reacquire_frames, int) or self.reacquire_frames < 1:
+            raise ConfigError(f"reacquire_frames must be an int >= 1, got {self.reacquire_frames!r}")
+        v = self.surroundings_veto_frames
+        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+            raise ConfigError(f"surroundings_veto_frames must be an int >= 0 (0: off), got {v!r}")
+        if self.target_motion not in TARGET_MOTIONS:
+            raise ConfigError(f"target_motion must be one of {', '.join(TARGET_MOTIONS)}, got {self.target_motion!r}")
+        for name in ("auto_frames", "max_unaligned_frames"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ConfigError(f"{name} must be an int >= 1, got {value!r}")
+        if not (self.moving_px > 0 and -1 <= self.cut_ncc < 1):
+            raise ConfigError(f"need moving_px > 0 and cut_ncc in [-1, 1), got {self.moving_px}, {self.cut_ncc}")
