@@ -3,6 +3,7 @@ alignment, and never leaves its workspace; for built-in and outside trackers and
 
 import dataclasses
 
+import cv2
 import numpy as np
 import pytest
 from hvs_test_plugins.track import KLTHomography
@@ -34,6 +35,29 @@ S_STAR = np.array([[100.0, 80.0], [220.0, 80.0], [220.0, 160.0], [100.0, 160.0]]
 
 def _gate(**settings) -> SafetyGate:
     return SafetyGate(SafetyConfig(**settings), FPS, S_STAR, 320, 240)
+
+
+def test_a_prediction_carries_the_camera_no_further_than_its_travel_budget_however_fast_it_went():
+    from types import SimpleNamespace
+
+    c = SafetyConfig()
+    for speed in (0.02, 0.15, 1.0):  # m/s when the target is hidden: slow, the twist bound, far beyond it
+        g, x = _gate(), 0.0
+        pose = lambda x: SimpleNamespace(t=np.array([x, 0.0, 0.0]), R=np.eye(3))
+        g.update(S_STAR, "align", 1.0, False, None, pose(x))
+        x += g.twist(np.array([speed, 0, 0, 0, 0, 0]))[0] / FPS
+        for _ in range(int(2 * c.max_predict_s * FPS)):  # predicting on: the servo keeps asking for full speed
+            g.update(S_STAR + 1, "predict", 0.8, False, None, pose(x))
+            x += g.twist(np.array([speed, 0, 0, 0, 0, 0]))[0] / FPS
+        assert 1e3 * x < c.max_predict_mm + 1e3 * speed / FPS, (speed, x)  # the step that began aligned, then ≤ D
+    # turning counts as travel does
+    g, turn = _gate(), 0.0
+    rot = lambda a: SimpleNamespace(t=np.zeros(3), R=cv2.Rodrigues(np.array([0.0, a, 0.0]))[0])
+    g.update(S_STAR, "align", 1.0, False, None, rot(0.0))
+    for _ in range(int(c.max_predict_s * FPS)):
+        g.update(S_STAR + 1, "predict", 0.8, False, None, rot(turn))
+        turn += g.twist(np.array([0, 0, 0, 0, 1.0, 0]))[4] / FPS
+    assert np.degrees(turn) < c.max_predict_deg + np.degrees(1.0 / FPS)
 
 
 def test_the_gate_holds_on_lost_and_on_a_long_prediction_and_stops_along_the_last_trusted_twist():

@@ -8,7 +8,9 @@ twist the law or policy returns):
   that declares none counts as sure, and is judged by the other checks), features that leave the image, a quad
   whose area is implausible against s*'s (`max_area_ratio`) or that jumped further than the camera's own motion
   explains (`max_jump_px`). A prediction is servoed on at a speed that falls linearly to zero at `max_predict_s`,
-  so the camera moves little on a guess. While it does not see, the commanded twist ramps down to zero within
+  and with the camera's travel since the last aligned measurement to zero at `max_predict_mm` (and its turn at
+  `max_predict_deg`): a guess moves the camera a bounded distance however fast the servo was going when the
+  target was hidden (v(1 - d/D) approaches D, never passes it). While it does not see, the commanded twist ramps down to zero within
   `decay_s` along the last twist it trusted (a controlled stop, as an industrial arm's stop category 2), and the camera holds while
   the tracker keeps searching. Servoing resumes once `resume_frames` consecutive aligned measurements agree within
   `resume_px` of each other with the camera held: a target found again stays where it was found.
@@ -34,6 +36,11 @@ from hvs_sim.validate import check_flags, check_number
 
 # the bounds' defaults, chosen on dev seeds (docs/tuning.md, "The safety rule")
 MAX_PREDICT_S = 0.5
+# how far a prediction may carry the camera: half the 20 mm the camera may drift while the target is hidden, the
+# other half left to the aligned steps under partial occlusion and the controlled stop; the turn that moves the
+# target's image about as much at the 0.8 m standoff (2° ≈ 28 mm of arc)
+MAX_PREDICT_MM = 10.0
+MAX_PREDICT_DEG = 2.0
 MIN_CONFIDENCE = 0.05
 MAX_AREA_RATIO = 16.0  # 4× the side: a start at 0.4 m of a 0.8 m standoff sees it 2× as wide (4× the area)
 MAX_JUMP_PX = 40.0
@@ -56,6 +63,8 @@ class SafetyConfig:
 
     enabled: bool = True
     max_predict_s: float = MAX_PREDICT_S  # a measurement predicted longer than this: hold
+    max_predict_mm: float = MAX_PREDICT_MM  # predictions carry the camera at most this far from the last aligned pose
+    max_predict_deg: float = MAX_PREDICT_DEG  # ... and turn it at most this much
     min_confidence: float = MIN_CONFIDENCE  # the tracker's Track.confidence under this: hold
     max_area_ratio: float = MAX_AREA_RATIO  # the features' quad larger or smaller than s*'s by this factor: hold
     max_jump_px: float = MAX_JUMP_PX  # a corner further than this from where the camera's motion carries it: hold
@@ -68,6 +77,8 @@ class SafetyConfig:
     def __post_init__(self):
         check_flags(self, ("enabled",))
         check_number("safety max_predict_s", self.max_predict_s, 0)
+        check_number("safety max_predict_mm", self.max_predict_mm, 0, lo_open=True)
+        check_number("safety max_predict_deg", self.max_predict_deg, 0, 180, lo_open=True)
         check_number("safety min_confidence", self.min_confidence, 0, 1)
         check_number("safety max_area_ratio", self.max_area_ratio, 1, lo_open=True)
         check_number("safety max_jump_px", self.max_jump_px, 0, lo_open=True)
@@ -95,6 +106,8 @@ class SafetyGate:
         self.agreeing: list[np.ndarray] = []  # the aligned measurements since the gate closed, while they agree
         self.factor = 1.0  # what the law's twist is scaled by
         self.trusted_twist = np.zeros(6)  # the last twist commanded with the gate open: the controlled stop's direction
+        self.aligned_pose: tuple[np.ndarray, np.ndarray] | None = None  # the camera (t, R) at the last aligned step
+        self.predicted_share = 0.0  # how much of the prediction's budget (time, travel, turn) is spent, 0..1
 
     def set_desired(self, desired_px: np.ndarray) -> None:
         """s* (the near-goal template's, after the switch): the reference for the quad's plausible area."""
@@ -110,7 +123,7 @@ class SafetyGate:
             return None
         if mode == "lost":
             return LOST
-        if mode == "predict" and self.predict_run * self.dt > c.max_predict_s:
+        if mode == "predict" and self.predicted_share > 1.0:
             return PREDICTED
         if confidence < c.min_confidence:
             return UNSURE
@@ -124,14 +137,30 @@ class SafetyGate:
             return IMPLAUSIBLE
         return None
 
+    def _spend(self, mode: str, camera) -> None:
+        """The share of the prediction's budget spent: the longest of its time, the camera's travel and its turn
+        since the last aligned measurement (travel and turn only where the camera pose is given)."""
+        c = self.config
+        self.predict_run = self.predict_run + 1 if mode == "predict" else 0
+        if camera is not None and mode == "align":
+            self.aligned_pose = (np.array(camera.t, float), np.array(camera.R, float))
+        share = (self.predict_run * self.dt / c.max_predict_s if c.max_predict_s > 0
+                 else math.inf if self.predict_run else 0.0)
+        if mode == "predict" and camera is not None and self.aligned_pose is not None:
+            t0, R0 = self.aligned_pose
+            share = max(share, 1e3 * float(np.linalg.norm(np.asarray(camera.t, float) - t0)) / c.max_predict_mm,
+                        rotation_deg(camera.R, R0) / c.max_predict_deg)
+        self.predicted_share = share if mode == "predict" else 0.0
+
     def update(self, px: np.ndarray | None, mode: str, confidence: float | None, fault: bool,
-               jump_px: float | None = None) -> str | None:
+               jump_px: float | None = None, camera=None) -> str | None:
         """Take a step's measurement and return why the loop holds (None: it servos); updates `factor`. px: the
         tracker's corners in the image (None: a run without features); confidence: the tracker's (None: it
         declares none); jump_px: the largest corner distance to where the camera's own motion carries the last
-        measurement (None where unknown)."""
+        measurement (None where unknown); camera: its pose from forward kinematics (t in m, R), for the travel a
+        prediction may cause (None: the prediction is bounded by its time alone)."""
         c = self.config
-        self.predict_run = self.predict_run + 1 if mode == "predict" else 0
+        self._spend(mode, camera)
         px = None if px is None else np.asarray(px, float)
         why = self._why_not(px, mode, 1.0 if confidence is None else float(confidence), fault, jump_px)
         if self.closed_because is None:
@@ -154,10 +183,10 @@ class SafetyGate:
         step = self.dt / c.decay_s if c.decay_s > 0 else 1.0
         if self.closed_because is None:
             self.factor = min(1.0, self.factor + step)
-            if mode == "predict" and c.enabled:  # a guess is servoed on ever more slowly, to a stop at max_predict_s
-                self.factor = min(self.factor, max(0.0, 1.0 - self.predict_run * self.dt / c.max_predict_s))
-        else:  # a fault stops at once: there is no law's answer at all
-            self.factor = 0.0 if self.closed_because == FAULT else max(0.0, self.factor - step)
+            if mode == "predict" and c.enabled:  # a guess is servoed on ever more slowly, to a stop at its budget
+                self.factor = min(self.factor, max(0.0, 1.0 - self.predicted_share))
+        else:  # a fault stops at once: there is no law's answer at all; a spent prediction has ramped down already
+            self.factor = 0.0 if self.closed_because in (FAULT, PREDICTED) else max(0.0, self.factor - step)
         return self.closed_because
 
     def twist(self, law_twist: np.ndarray | None) -> np.ndarray:

@@ -270,7 +270,7 @@ class ServoLoop:
             jump = None if carried is None else float(np.linalg.norm(pinhole - carried, axis=1).max())
             ep.carrier.update(pinhole, obs.camera, usable=seen.mode != "lost")
         confidence = seen.track.confidence if seen.track is not None else None
-        ep.held_because = ep.gate.update(px, seen.mode, confidence, fault is not None, jump)
+        ep.held_because = ep.gate.update(px, seen.mode, confidence, fault is not None, jump, obs.camera)
         twist = ep.gate.twist(ctrl.twist if ctrl is not None else None)
         if not np.any(twist):
             return twist
