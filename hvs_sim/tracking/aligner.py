@@ -294,11 +294,12 @@ class Aligner:
         _, _, theta, scale = matrix_to_pose(A, self.center0)
         t0, s0 = self._rectified_for
         if abs(theta - t0) > np.radians(RECTIFY_DEG) or abs(scale / s0 - 1) > RECTIFY_SCALE:
-            # a template pixel q (about the centre c) shows init-view point c + R(−θ)(q − c)/s
-            R = pose_to_matrix((0.0, 0.0, -theta, 1.0 / scale), self.c_work)
-            self.search_template = self.template_patch(self.init_work, R)
-            self._rectified_for = (theta, scale)
+            self.search_template, self._rectified_for = self.shaped_template(theta, scale), (theta, scale)
         return self.search_template
+
+    def shaped_template(self, theta: float, scale: float) -> np.ndarray:
+        """The init view turned by θ and scaled by s: a template pixel q (about the centre c) shows c + R(−θ)(q − c)/s."""
+        return self.template_patch(self.init_work, pose_to_matrix((0.0, 0.0, -theta, 1.0 / scale), self.c_work))
 
     # ----------------------------------------------------------------- per frame
 

@@ -92,7 +92,7 @@ from hvs_sim.tracking.sources import (
     SceneMotionSource,
 )
 from hvs_sim.tracking.trackability import check_trackable
-from hvs_sim.tracking.warp import apply, matrix_to_pose, pose_to_matrix, translate
+from hvs_sim.tracking.warp import apply, matrix_to_pose, translate
 
 
 def _thumb(work: np.ndarray) -> np.ndarray | None:
@@ -219,9 +219,8 @@ class HybridTracker(Tracker):
         _, _, theta_est, scale_est = matrix_to_pose(st.A, st.center0)
         if abs(theta - theta_est) <= np.radians(RECTIFY_DEG) and abs(scale / scale_est - 1) <= RECTIFY_SCALE:
             return False  # searched in this shape already
-        # the template rectified by A's θ and s (as Aligner.rectified_template, whose cached one is left as it is)
-        R = pose_to_matrix((0.0, 0.0, -theta, 1.0 / scale), al.c_work)
-        again = al.matcher.match(work, al.template_patch(al.init_work, R))
+        # the template in A's shape (Aligner.rectified_template's cached one is left as it is)
+        again = al.matcher.match(work, al.shaped_template(theta, scale))
         centre = apply(al.to_work(A), al.c_work[None])[0]
         return (again.score - again.second >= c.reacquire_margin
                 and bool(np.linalg.norm(again.center - centre) <= c.reacquire_px * self.config.scale))
