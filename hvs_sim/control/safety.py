@@ -107,7 +107,7 @@ class SafetyGate:
         self.factor = 1.0  # what the law's twist is scaled by
         self.trusted_twist = np.zeros(6)  # the last twist commanded with the gate open: the controlled stop's direction
         self.aligned_pose: tuple[np.ndarray, np.ndarray] | None = None  # the camera (t, R) at the last aligned step
-        self.predicted_share = 0.0  # how much of the prediction's budget (time, travel, turn) is spent, 0..1
+        self.predicted_share = 0.0  # the share of the prediction's budget (time, travel, turn) spent: 1 = all
 
     def set_desired(self, desired_px: np.ndarray) -> None:
         """s* (the near-goal template's, after the switch): the reference for the quad's plausible area."""
@@ -144,13 +144,15 @@ class SafetyGate:
         self.predict_run = self.predict_run + 1 if mode == "predict" else 0
         if camera is not None and mode == "align":
             self.aligned_pose = (np.array(camera.t, float), np.array(camera.R, float))
-        share = (self.predict_run * self.dt / c.max_predict_s if c.max_predict_s > 0
-                 else math.inf if self.predict_run else 0.0)
-        if mode == "predict" and camera is not None and self.aligned_pose is not None:
+        if mode != "predict":
+            self.predicted_share = 0.0
+            return
+        share = self.predict_run * self.dt / c.max_predict_s if c.max_predict_s > 0 else math.inf
+        if camera is not None and self.aligned_pose is not None:
             t0, R0 = self.aligned_pose
             share = max(share, 1e3 * float(np.linalg.norm(np.asarray(camera.t, float) - t0)) / c.max_predict_mm,
                         rotation_deg(camera.R, R0) / c.max_predict_deg)
-        self.predicted_share = share if mode == "predict" else 0.0
+        self.predicted_share = share
 
     def update(self, px: np.ndarray | None, mode: str, confidence: float | None, fault: bool,
                jump_px: float | None = None, camera=None) -> str | None:

@@ -1,5 +1,5 @@
-"""The servo laws as the loop drives them (`ServoLaw`: what it uses, and the law built on each template): each declares what it uses (`LawCaps`) and is built on a template's s* into
-one shape, compute(ControlInput) -> ControlOutput, so that the loop and its plan ask capabilities instead of checking
+"""The servo laws as the loop drives them (`ServoLaw`): each declares what it uses (`LawCaps`) and is built on each
+template's s* into one shape, compute(ControlInput) -> ControlOutput, so that the loop and its plan ask capabilities instead of checking
 law names. The built-ins' capabilities are a table here; an outside law (hvs_sim.plugins) declares `uses_features` and
 answers (twist, dofs), which `OutsideLaw` bounds as the built-ins bound their own."""
 
