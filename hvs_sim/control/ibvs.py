@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
@@ -123,6 +124,13 @@ class ControlOutput:
         """Condition number of the controlled columns of L (inf when rank-deficient)."""
         c = condition_number(self.singular_values)
         return float("inf") if c is None else c
+
+
+class Law(Protocol):
+    """A servo law as the loop drives it on one template's s*: the built-ins, and an outside law once bounded
+    (servo/laws.py's OutsideLaw)."""
+
+    def compute(self, inp: ControlInput, /) -> ControlOutput: ...
 
 
 class IBVSController:

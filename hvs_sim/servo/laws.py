@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hvs_sim.control.ibvs import DOF_NAMES, ControlOutput, IBVSConfig, IBVSController, bound_twist
+from hvs_sim.control.ibvs import DOF_NAMES, ControlOutput, IBVSConfig, IBVSController, Law, bound_twist
 from hvs_sim.control.pbvs import PBVSController
 from hvs_sim.control.protocol import ControlInput
 from hvs_sim.errors import ConfigError
@@ -88,7 +88,7 @@ class ServoLaw:
         self.name, self.outside, self.caps = controller, outside, caps
 
     def build(self, K: np.ndarray, desired_px: np.ndarray, desired_depth: float, config: IBVSConfig,
-              dofs: tuple[str, ...], goal: np.ndarray | None, roi):
+              dofs: tuple[str, ...], goal: np.ndarray | None, roi) -> Law:
         """The law on s* = desired_px (pinhole pixels), or on the goal image's region `roi` for a law on the images."""
         if self.outside is not None:
             return OutsideLaw(self.outside, config, dofs)

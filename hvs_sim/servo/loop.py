@@ -59,8 +59,9 @@ class ServoLoop:
         self._law_errors = Exception if self.servo_law.caps.outside or self.policy is not None else HvsError
         self.task = ServoTask(scenario)  # the world this agent steps: scene, renderer, arm, s*, metrics
         self.task.reset()  # ConfigError when the target is not fully in view from the start
-        self.scene, self.renderer, self.arm = self.task.scene, self.task.renderer, self.task.arm
-        self.flag_desired = self.task.desired  # the target's corners seen from the reference pose
+        world = self.task.world
+        self.scene, self.renderer, self.arm = world.scene, world.renderer, world.arm
+        self.flag_desired = world.desired  # the target's corners seen from the reference pose
         self.desired_depth = float(scenario.standoff)
         self.templates = TemplateSchedule(self.scene, self.renderer, config, self.resolved, tracker, self.tracker,
                                           near_goal_tracker, self.flag_desired)
@@ -172,19 +173,14 @@ class ServoLoop:
                 raise StateError(f"policy {self.config.policy!r} failed in reset(): {type(exc).__name__}: {exc}") \
                     from exc
         feature_filter = self._feature_filter(t.desired) if self.resolved.filter_alpha > 0 else None
-        ep = Episode(flag0, t.roi, t.corners, t.inset, t.desired, template_frame, goal, controller, feature_filter,
-                     near_goal)
-        self._start_safety(ep, cap)
-        return ep
-
-    def _start_safety(self, ep: Episode, cap: Capture) -> None:
-        """The safety rule's state for the episode: the gate on s*, the envelope from the camera's start pose (forward
-        kinematics) and the taught goal, and the carrier that predicts each measurement from the camera's motion."""
+        # the safety rule's state: the gate on s*, the envelope from the camera's start pose (forward kinematics) and
+        # the taught goal, and the carrier that predicts each measurement from the camera's motion
         cam, safety = self.scenario.camera, self.config.safety
-        ep.gate = SafetyGate(safety, self.scenario.fps, ep.desired, cam.width, cam.height)
         goal_pos, goal_R = self.scene.reference_pose()
-        ep.envelope = Envelope(safety, cap.obs.camera.t, cap.obs.camera.R, goal_pos, goal_R)
-        ep.carrier = self._carrier(ep.desired) if self.tracker is not None else None
+        return Episode(flag0, t.roi, t.corners, t.inset, t.desired, template_frame, goal, controller, feature_filter,
+                       gate=SafetyGate(safety, self.scenario.fps, t.desired, cam.width, cam.height),
+                       envelope=Envelope(safety, cap.obs.camera.t, cap.obs.camera.R, goal_pos, goal_R),
+                       carrier=self._carrier(t.desired) if self.tracker is not None else None, near_goal=near_goal)
 
     def _carrier(self, desired: np.ndarray) -> FeatureFilter:
         """The safety gate's carrier: a feature filter that keeps each measurement whole (α = 1), for its prediction of
@@ -244,7 +240,7 @@ class ServoLoop:
                 if self.policy is not None:
                     ctrl = bounded(self.policy.act(self._policy_input(obs, ep.goal, ep.desired, step)), self.dofs,
                                    self.ibvs_config)
-                else:
+                elif ep.controller is not None:  # a policy's episode has no law
                     inp = self._control_input(control_px, ep.desired, depths, mode, motion, obs.frame, ep.goal, step)
                     ctrl = ep.controller.compute(inp)  # one ControlOutput, built-in or outside
             except self._law_errors as exc:
@@ -263,7 +259,7 @@ class ServoLoop:
         (not the filtered ones) and holds the arm while it does not see; a twist that would carry the camera out of
         the envelope within one step is not commanded, and the episode ends (ep.aborted)."""
         jump, px = None, None
-        if self.tracker is not None and seen.fault is None:
+        if ep.carrier is not None and seen.fault is None:  # a tracker's corners (the carrier is None without one)
             px = seen.tracked
             pinhole = self._pinhole(px)
             carried = ep.carrier.predict(obs.camera) if ep.carrier.state is not None else None

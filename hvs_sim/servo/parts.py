@@ -16,6 +16,7 @@ from hvs_sim.tracking import Track
 
 if TYPE_CHECKING:
     from hvs_sim.control.feature_filter import FeatureFilter
+    from hvs_sim.control.ibvs import Law
     from hvs_sim.control.safety import Envelope, SafetyGate
 
 # where the tracked features' template comes from (LoopConfig.template_from): the run's first frame ("start"),
@@ -112,17 +113,17 @@ class Episode:
     roi0: np.ndarray  # its corners: the points the features are
     inset: int  # px the box lies inside the target's outline
     desired: np.ndarray  # s*: the features at the reference pose, in the camera's image
-    template_frame: np.ndarray  # the first frame or the goal image
+    template_frame: np.ndarray | None  # the first frame or the goal image (None: the oracle from the first frame)
     goal: np.ndarray | None  # the goal image (None with a start template)
-    controller: object | None  # the servo law: a built-in or an outside one (None: a policy's episode)
+    controller: Law | None  # the servo law: a built-in or an outside one (None: a policy's episode)
     feature_filter: FeatureFilter | None  # None: off
+    gate: SafetyGate  # the safety rule's gate
+    envelope: Envelope  # the workspace the camera may not leave
+    carrier: FeatureFilter | None  # the last measurement carried by the camera's motion (the gate's jump test; None: no tracker)
     near_goal: Template | None = None  # the grown template switched to near the goal (None: one template throughout)
     camera_prev: CameraPose | None = None  # the camera at the step before: the camera's own motion between frames
     grow_from: np.ndarray | None = None  # the homography to seed the grown template at: the switch is due next step
     grown_at: int | None = None  # the step the grown template took over
-    gate: SafetyGate | None = None  # the safety rule's gate (set at step 0)
-    envelope: Envelope | None = None  # the workspace the camera may not leave (set at step 0)
-    carrier: FeatureFilter | None = None  # the last measurement carried by the camera's motion (the gate's jump test)
     held_because: str | None = None  # why the gate holds the arm this step (None: it servos)
     aborted: str | None = None  # why the episode ended: the next command would have left the envelope
 

@@ -6,7 +6,9 @@ and the gym env feed them to RunStats."""
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -14,6 +16,9 @@ from hvs_sim.control.ibvs import DOF_NAMES, condition_number, matrix_rank
 from hvs_sim.errors import StateError
 from hvs_sim.render.camera import CameraPose
 from hvs_sim.tracking import Track
+
+if TYPE_CHECKING:
+    from hvs_sim.servo.config import LoopConfig
 
 MODES = ("align", "predict", "lost", "fault")  # a record's mode, in the order its code (index) is plotted and stored
 
@@ -83,7 +88,7 @@ class RunStats:
     """A run's summary, accumulated step by step in arrays sized for `config.steps` when the run starts,
     so that memory does not grow with the steps taken (a 100 000-step run keeps no records)."""
 
-    def __init__(self, config, near_goal=None):
+    def __init__(self, config: LoopConfig, near_goal: Callable[[int | None], dict | None] | None = None) -> None:
         """near_goal: the loop's near_goal_plan (called with the switch step at summary time); None: the summary
         tells the near-goal template from the config and the records."""
         n = config.steps
@@ -104,10 +109,10 @@ class RunStats:
         self.switched_inset: int | None = None  # that template's inset (px)
         self.max_condition: float | None = None
         self.min_rank: int | None = None
-        self.first = None  # StepRecord
-        self.last = None  # StepRecord
+        self.first: StepRecord | None = None
+        self.last: StepRecord | None = None
 
-    def add(self, r) -> None:
+    def add(self, r: StepRecord) -> None:
         if self.n >= len(self.time):
             raise StateError(f"RunStats holds {len(self.time)} steps (LoopConfig.steps); got one more")
         k = self.n
@@ -128,7 +133,7 @@ class RunStats:
         self.limit_blocked += bool(r.limit_blocked)
         self.out_of_view += not r.target_in_view
         self.filter_restarts += bool(r.filter_restarted)
-        if self.last is not None:
+        if self.last is not None and self.first is not None:
             self.path_m += float(np.linalg.norm(r.camera.t - self.last.camera.t))
             if self.switched_at is None and r.template != self.first.template:
                 self.switched_at, self.switched_inset = r.step, r.template[1]
@@ -166,8 +171,9 @@ class RunStats:
         drifted while the target was hidden (max tracker error over steps ≥ HIDDEN_OCCLUSION hidden)."""
         n = self.n
         occ, terr, mode = self.occlusion[:n], self.tracker_error_px[:n], self.mode[:n]
-        out = {"seconds_to_reacquire": None, "reacquired": None, "max_tracker_error_while_hidden_px": None,
-               "max_drift_while_hidden_mm": None}
+        out: dict[str, float | bool | None] = {"seconds_to_reacquire": None, "reacquired": None,
+                                               "max_tracker_error_while_hidden_px": None,
+                                               "max_drift_while_hidden_mm": None}
         if not np.all(np.isfinite(occ)):
             return out
         hidden = np.flatnonzero(occ >= HIDDEN_OCCLUSION)
@@ -206,9 +212,10 @@ class RunStats:
         Converged: for `hold_steps` consecutive steps the image error is under `converge_px` AND the
         camera's pose error, in the DOFs the controller commands, is under `converge_mm` / `converge_deg`
         (a 4-DOF loop that centres a tilted target by sliding sideways has a small image error but not the pose)."""
-        if self.n == 0:
+        first, final = self.first, self.last
+        if self.n == 0 or first is None or final is None:
             raise StateError("no steps to summarise")
-        config, n, final = self.config, self.n, self.last
+        config, n = self.config, self.n
         err, ctrl_pose = self.error_px[:n], self.controlled[:n]
         below = (err < config.converge_px) & (ctrl_pose[:, 0] < config.converge_mm) & (ctrl_pose[:, 1] < config.converge_deg)
         steps_to_converge = None
@@ -224,7 +231,8 @@ class RunStats:
         occluded = occ > 0  # NaN (not evaluated) counts as not occluded; the occlusion figures are then None
         mode = self.mode[:n]
         count = {m: int(np.sum(mode == i)) for i, m in enumerate(MODES)}
-        timing = {k: {"median_ms": float(np.median(v[:n])), "mean_ms": float(np.mean(v[:n]))}
+        timing: dict[str, dict[str, float | str]] = {k: {"median_ms": float(np.median(v[:n])),
+                                                         "mean_ms": float(np.mean(v[:n]))}
                   for k, v in sorted(self.timings.items())}
         step = self.step_ms[:n]
         timing["step"] = {"median_ms": float(np.median(step)), "mean_ms": float(np.mean(step)),  # as run: wall time
@@ -235,17 +243,17 @@ class RunStats:
                                "note": "after step 0, the step's wall time less its stages: the consumer's "
                                        "bookkeeping (CSV, progress bar, statistics) and the loop's own between stages"}
         tracker_err = self.tracker_error_px[:n]
-        final_mm, initial_mm = (float(np.linalg.norm(r.pose_error[:3])) for r in (final, self.first))
+        final_mm, initial_mm = (float(np.linalg.norm(r.pose_error[:3])) for r in (final, first))
         return {
             "controller": None if config.policy is not None else config.controller,
             "policy": config.policy,
-            "damping": self.first.damping,
+            "damping": first.damping,
             "pipeline": config.pipeline,
-            "template_from": self.first.template[0],
-            "roi_inset_px": self.first.template[1],
+            "template_from": first.template[0],
+            "roi_inset_px": first.template[1],
             "near_goal": self._near_goal(),
-            "goal_frames": self.first.template[2],
-            "feature_filter": self.first.feature_filter,
+            "goal_frames": first.template[2],
+            "feature_filter": first.feature_filter,
             "feature_filter_restarts": self.filter_restarts,
             "controlled_dofs": list(final.dofs),
             "pose_bound": {"mm": config.converge_mm, "deg": config.converge_deg,
@@ -273,7 +281,7 @@ class RunStats:
             "held_steps": self.held,
             "held_because": dict(sorted(self.held_because.items())),
             "runaway": self.aborted is not None or final_mm - initial_mm > RUNAWAY_MM,
-            "initial_pose_error_deg": float(np.linalg.norm(self.first.pose_error[3:])),
+            "initial_pose_error_deg": float(np.linalg.norm(first.pose_error[3:])),
             **self._occlusion_figures(),
             "steps_to_converge": steps_to_converge,
             "seconds_to_converge": None if steps_to_converge is None else float(self.time[steps_to_converge]),

@@ -13,6 +13,7 @@ from concurrent.futures import Future, ThreadPoolExecutor
 import numpy as np
 
 from hvs_sim.control.arm import JointCommand
+from hvs_sim.errors import StateError
 from hvs_sim.servo.parts import Capture, Episode, Measured, Stopwatch, lap
 from hvs_sim.servo.records import StepRecord
 from hvs_sim.servo.teach import corners_in_view
@@ -67,6 +68,8 @@ def pipelined(loop, pool: ThreadPoolExecutor) -> Iterator[StepRecord]:
         yield record(loop, step, cap, ep, seen, ctrl, cmd, timings, wall_ms=wall.lap())
         if ep.aborted is not None:
             return
+        if nxt is None:  # the last step
+            return
         qdot_due, cap = cmd.qdot, nxt
 
 
@@ -92,7 +95,7 @@ def act(loop, ep: Episode, cap: Capture, seen: Measured, step: int, timings: dic
 
 def capture(loop) -> Capture:
     """Everything a step reads from the scene at its state: the frame and the truth that grades it."""
-    task, timings = loop.task, {}
+    task, timings = loop.task, dict[str, float]()
     with lap(timings, "render"):
         obs = task.observe(frame=loop.renders_frames)
     with lap(timings, "ground_truth"):
@@ -103,8 +106,10 @@ def capture(loop) -> Capture:
     return Capture(obs, truth, task.scene.people_poses(), task.scene.arm_poses(), depths, timings, depths_ms)
 
 
-def track(loop, frame: np.ndarray, first: Track | None) -> Track:
+def track(loop, frame: np.ndarray | None, first: Track | None) -> Track:
     """The tracker's corners for a frame (`first`: the init's own track of step 0, when it has one)."""
+    if first is None and frame is None:
+        raise StateError("the tracker has no frame: the loop rendered none (ServoLoop.renders_frames)")
     out = first if first is not None else loop.tracker.update(frame)
     if not np.all(np.isfinite(out.corners)):
         raise FloatingPointError("tracker returned non-finite corners")

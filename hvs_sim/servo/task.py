@@ -26,7 +26,18 @@ from hvs_sim.scene.world import Scene, model_key
 from hvs_sim.servo.parts import Observation, Truth
 from hvs_sim.servo.teach import check_start_in_view, goal_image
 
-__all__ = ["Observation", "ServoTask", "Truth"]  # the task's two answers live in parts.py, which the loop's config reads
+__all__ = ["Observation", "ServoTask", "Truth", "World"]  # the task's two answers live in parts.py, which the loop reads
+
+
+@dataclasses.dataclass(frozen=True)
+class World:
+    """The live episode's parts, none of them missing: what an agent that stepped a successful reset holds (the task's
+    own attributes are None between episodes)."""
+
+    scene: Scene
+    renderer: Renderer
+    arm: ArmDriver
+    desired: np.ndarray  # s*: the target's corners at the reference pose (px)
 
 
 class ServoTask:
@@ -64,10 +75,16 @@ class ServoTask:
         self.arm = ArmDriver(self.scene)
         return self.observe(frame=False)
 
-    def _live(self) -> tuple[Scene, Renderer]:
-        if self.scene is None or self.renderer is None:
+    @property
+    def world(self) -> World:
+        """The live episode's scene, renderer, arm and s*; StateError before a reset succeeds or after close()."""
+        if self.scene is None or self.renderer is None or self.arm is None or self.desired is None:
             raise StateError("the servo task has no episode: call reset() first")
-        return self.scene, self.renderer
+        return World(self.scene, self.renderer, self.arm, self.desired)
+
+    def _live(self) -> tuple[Scene, Renderer]:
+        w = self.world
+        return w.scene, w.renderer
 
     def observe(self, frame: bool = True) -> Observation:
         """What a controller may read now; the frame only when asked (it is rendered, with the camera's noise)."""
@@ -84,13 +101,11 @@ class ServoTask:
 
     def error_px(self, truth: Truth) -> float:
         """The mean distance (px) of the target's corners to s*: what the task grades."""
-        return float(np.linalg.norm(truth.corners - self.desired, axis=1).mean())
+        return float(np.linalg.norm(truth.corners - self.world.desired, axis=1).mean())
 
     def command(self, twist: np.ndarray) -> JointCommand:
         """The camera twist as joint velocities at the arm's configuration now (ArmDriver.command)."""
-        if self.arm is None:
-            raise StateError("the servo task has no episode: call reset() first")
-        return self.arm.command(twist)
+        return self.world.arm.command(twist)
 
     def advance(self, qdot: np.ndarray) -> None:
         """One physics step with the joints at these velocities (rad/s)."""
@@ -100,9 +115,11 @@ class ServoTask:
              occlusion: bool = True, counts: bool = False) -> tuple[Observation, Truth]:
         """One step: a camera twist (through the arm's driver) or joint velocities, then what follows from it (the
         frame, the occlusion and its counts as observe and truth take them)."""
-        if (twist is None) == (qdot is None):
+        if twist is not None and qdot is None:
+            qdot = self.command(twist).qdot
+        elif twist is not None or qdot is None:
             raise InputError("give the step a twist or joint velocities (qdot), one of them")
-        self.advance(self.command(twist).qdot if twist is not None else qdot)
+        self.advance(qdot)
         return self.observe(frame), self.truth(occlusion, counts)
 
     def close(self) -> None:

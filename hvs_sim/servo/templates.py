@@ -35,25 +35,30 @@ class TemplateSchedule:
 
     def goal_image(self) -> tuple[np.ndarray, np.ndarray]:
         """The goal image and the target's corners in it (servo/teach.py), with this run's goal frames."""
+        if self.resolved.goal_frames is None:
+            raise StateError("this run's template is taken from its first frame: it has no goal image")
         return goal_image(self.scene, self.resolved.goal_frames)
 
     def default_inset(self, roi) -> int:
         return default_inset(roi, self.resolved.template_from, self.oracle)
 
-    def start(self, cap: Capture) -> tuple[np.ndarray, np.ndarray | None, Template, np.ndarray, Template | None]:
+    def start(self, cap: Capture) -> tuple[np.ndarray | None, np.ndarray | None, Template, np.ndarray, Template | None]:
         """Step 0's templates: (the template's image, the goal image or None, the template, the target's corners in
         its image, the grown near-goal template or None). InputError when a grown box runs off the goal image."""
         res = self.resolved
         # the template's image and the target's corners in it: this first frame, or the goal image
+        template_frame: np.ndarray | None  # None: the oracle's run from the first frame, which renders none
         template_frame, flag0 = (cap.obs.frame, cap.truth.corners) if res.template_from == "start" \
             else self.goal_image()
         goal = None if res.template_from == "start" else template_frame
         outline = roi_from_corners(flag0)
         inset = self.default_inset(outline) if res.roi_inset_px is None else res.roi_inset_px
         template = self._template(flag0, self.box(outline, inset, "roi_inset_px"), inset)
-        near_goal, growth = None, res.near_goal
-        if growth == NEAR_GOAL_AUTO:
+        near_goal, growth = None, None
+        if res.near_goal == NEAR_GOAL_AUTO:
             growth, self.near_goal_off = near_goal_growth(outline, self.scene.scenario.camera)
+        elif res.near_goal is not None:
+            growth = int(res.near_goal)
         self.near_goal_growth = growth
         if growth is not None:  # the grown box checked now: a run that cannot switch says so
             near_goal = self._template(flag0, self.box(outline, growth, "near_goal_inset_px"), growth)
@@ -94,6 +99,8 @@ class TemplateSchedule:
         small one's corners put it, the episode's template fields moved to the grown box; returns the tracker that
         goes on. The loop then starts s*'s users again (the law, the feature filter, the gate)."""
         near, A = ep.near_goal, ep.grow_from
+        if near is None or A is None:
+            raise StateError(f"no switch to a near-goal template is due at step {step}")
         tracker = self.near_goal_tracker or tracker
         try:
             tracker.init(ep.template_frame, near.roi)

@@ -23,14 +23,16 @@ class TrackedCorners:
         self.flag0 = task.truth(occlusion=False).corners  # the target's corners in the first frame
         roi = roi_from_corners(self.flag0)
         self.roi0 = roi_corners(roi)  # the tracked box's corners in the first frame; s* is where they go at the goal
-        self.desired = task.renderer.transfer(self.flag0, task.desired, self.roi0)
+        world = task.world
+        self.desired = world.renderer.transfer(self.flag0, world.desired, self.roi0)
         try:
-            track = self.tracker.init(task.renderer.rgb(), roi)
+            track = self.tracker.init(world.renderer.rgb(), roi)
         except Exception as exc:  # the episode cannot give features: say so, as the loop does
             raise StateError(f"tracker {name!r} could not start on the first frame: {type(exc).__name__}: {exc}") \
                 from exc
         self.corners = self.roi0 if track is None else track.corners  # an outside tracker's init may answer nothing
-        self.mode, self.fault, self._fresh = "init", None, True
+        self.mode, self._fresh = "init", True
+        self.fault: str | None = None  # the last update's fault (None: it tracked)
 
     def update(self, frame: np.ndarray) -> np.ndarray:
         """The corners in `frame` (the first call: those of the frame the tracker was initialised on)."""
