@@ -72,9 +72,13 @@ class ExternalTracker:
         # the loop's help near the goal (a template grown into the target's plane, given through init and seed) is
         # offered to every tracker with a goal template; one that cannot use it declines by `near_goal = False`
         self.near_goal = bool(getattr(inner, "near_goal", True))
+        self.working_scale: float | None = None  # an outside tracker's resolution is its own (Tracker.working_scale)
         self.corners0 = None
         self.contract_note: str | None = None
         self._first, self._frame0 = True, None  # the next answer is the first on the ROI's frame (none seeded since)
+
+    def with_scale(self, scale: float):
+        raise ConfigError(f"tracker {self.name!r} is an outside tracker: it has no working scale hvs_sim can change")
 
     def init(self, frame, roi):
         from hvs_sim.tracking.frames import check_frame, check_roi, roi_corners

@@ -178,6 +178,24 @@ def test_bad_input_raises_documented_errors(name):
         tr.update("not a frame")
 
 
+@pytest.mark.parametrize("name", ["deep_lk", "hybrid_homography"])
+def test_with_scale_gives_the_same_tracker_at_another_working_scale(name):
+    """What a servo's near-goal template asks (servo/plan.py): the tracker again, its settings unchanged but the
+    resolution it aligns at, as make_tracker would build it with that scale."""
+    tracker = make_tracker(name, margin=6)
+    other = tracker.with_scale(0.25)
+    assert (tracker.working_scale, other.working_scale, other.name) == (0.5, 0.25, name)
+    assert other.config == make_tracker(name, margin=6, scale=0.25).config
+    assert other.warp == tracker.warp and other is not tracker
+
+
+def test_a_tracker_without_a_working_scale_says_so():
+    ecc = make_tracker("ecc")
+    assert ecc.working_scale is None and ecc.can_seed and ecc.near_goal
+    with pytest.raises(HvsError, match="no working scale"):
+        ecc.with_scale(0.25)
+
+
 def test_unknown_tracker_name_lists_the_accepted_ones():
     with pytest.raises(HvsError, match="deep_lk"):
         make_tracker("kcf")

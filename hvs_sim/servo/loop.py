@@ -30,7 +30,7 @@ from hvs_sim.servo.records import StepRecord
 from hvs_sim.servo.step import pipelined, sequential
 from hvs_sim.servo.task import Observation, ServoTask
 from hvs_sim.servo.templates import TemplateSchedule
-from hvs_sim.tracking import Track, make_tracker
+from hvs_sim.tracking import Track
 from hvs_sim.tracking.warp import perspective_transform
 
 
@@ -52,8 +52,8 @@ class ServoLoop:
         self.oracle = tracker == plugins.GROUND_TRUTH
         self.resolved = resolve(tracker, config, self.tracker, self.law, self.policy)
         near_goal_tracker = None  # the tracker on the near-goal template, when it is another (near_goal_scale)
-        if self.resolved.near_goal_scale is not None:
-            near_goal_tracker = make_tracker(tracker, **{**tracker_config, "scale": self.resolved.near_goal_scale})
+        if self.resolved.near_goal_scale is not None and self.tracker is not None:
+            near_goal_tracker = self.tracker.with_scale(self.resolved.near_goal_scale)
         # what a law's failure may raise and the run records as a fault: the built-ins raise HvsError (PBVS on a
         # degenerate quad); an outside method anything
         self._law_errors = Exception if self.servo_law.caps.outside or self.policy is not None else HvsError

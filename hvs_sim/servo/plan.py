@@ -42,11 +42,6 @@ def template_view(template_from: str | None, tracked_6dof: bool) -> str:
     return template_from or ("goal" if tracked_6dof else "start")
 
 
-def working_scale(tracker) -> float | None:
-    """A tracker's working scale (DeepLKConfig.scale), None where it has none (ECC, an outside tracker, no tracker)."""
-    return getattr(getattr(tracker, "config", None), "scale", None)
-
-
 def loop_tracker(tracker: str, settings: dict) -> Tracker | plugins.ExternalTracker | None:
     """The closed loop's tracker by name or plugin reference with its settings (None: the ground_truth oracle, or
     no tracker). Built before the scene, so a bad name or setting costs no rendering."""
@@ -59,7 +54,8 @@ def loop_tracker(tracker: str, settings: dict) -> Tracker | plugins.ExternalTrac
     return plugins.build("tracker", tracker, **settings)
 
 
-def resolve(name: str, config: LoopConfig, tracker, law, policy) -> ResolvedLoop:
+def resolve(name: str, config: LoopConfig, tracker: Tracker | plugins.ExternalTracker | None, law,
+            policy) -> ResolvedLoop:
     """LoopConfig's None settings decided once, from the tracker (`name`, and the object: None for the oracle and for
     no tracker), the outside law or policy (None: a built-in law) and the DOFs the features observe."""
     oracle = name == plugins.GROUND_TRUTH
@@ -74,7 +70,7 @@ def resolve(name: str, config: LoopConfig, tracker, law, policy) -> ResolvedLoop
         damping = TRACKED_6DOF_DAMPING if tracked_6dof and caps is not None and caps.damped else 0.0
     alpha = config.feature_filter
     alpha = (FEATURE_FILTER_ALPHA if tracked_6dof else 0.0) if alpha is None else float(alpha)
-    can_seed = getattr(tracker, "can_seed", True)  # an outside tracker without seed(A): its first frame
+    can_seed = tracker is None or tracker.can_seed  # an outside tracker without seed(A): its first frame
     template_from = template_view(config.template_from, tracked_6dof and can_seed)
     if tracker is None and not oracle:  # a law on the images or a policy: they compare with the goal
         if config.template_from == "start":
@@ -108,7 +104,8 @@ def resolve(name: str, config: LoopConfig, tracker, law, policy) -> ResolvedLoop
     return ResolvedLoop(warp, dofs, damping, alpha, template_from, goal_frames, inset, near_goal, near_off,
                         near_scale)
 
-def _resolve_near_goal(name: str, config: LoopConfig, tracker, template_from: str,
+def _resolve_near_goal(name: str, config: LoopConfig, tracker: Tracker | plugins.ExternalTracker | None,
+                       template_from: str,
                        inset: int | None) -> tuple[int | str | None, str | None, float | None]:
     """(the near-goal template's growth: a number, NEAR_GOAL_AUTO for step 0 to decide, or None; why there is
     none where NEAR_GOAL_AUTO cannot apply; the working scale a second tracker is built at, None: the loop's
@@ -126,7 +123,7 @@ def _resolve_near_goal(name: str, config: LoopConfig, tracker, template_from: st
                "beyond them")
     elif inset is not None and inset < 0:
         why = f"roi_inset_px ({inset}) grows the first template already"
-    elif near == NEAR_GOAL_AUTO and not getattr(tracker, "near_goal", True):
+    elif near == NEAR_GOAL_AUTO and not tracker.near_goal:
         why = (f"{name!r} declines the near-goal template (its `near_goal` is False; give near_goal_inset_px "
                "a growth to switch it anyway)")
     if why is not None:
@@ -138,8 +135,8 @@ def _resolve_near_goal(name: str, config: LoopConfig, tracker, template_from: st
             raise ConfigError(f"{given[0]} sets the near-goal template, but this run has none: {why}")
         return None, why, None
     scale = config.near_goal_scale
-    # a built-in tracker with a working scale is built again at the near-goal one; any other tracker is its own
-    own = working_scale(tracker) if name in TRACKER_NAMES else None
+    # a tracker with a working scale is built again at the near-goal one (Tracker.with_scale); any other is its own
+    own = None if tracker is None else tracker.working_scale
     if own is None:
         if scale is not None:
             raise ConfigError(f"near_goal_scale builds a built-in tracker again at another working scale; "

@@ -13,7 +13,6 @@ from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.world import Scene
 from hvs_sim.servo.config import IN_VIEW_MARGIN_PX, LoopConfig
 from hvs_sim.servo.parts import NEAR_GOAL_AUTO, Capture, Episode, Measured, ResolvedLoop, Template
-from hvs_sim.servo.plan import working_scale
 from hvs_sim.servo.teach import box_in_view, corners_in_view, default_inset, goal_image, near_goal_growth
 from hvs_sim.tracking.frames import inset_roi, roi_corners, roi_from_corners
 from hvs_sim.tracking.warp import apply as apply_warp
@@ -120,7 +119,7 @@ class TemplateSchedule:
         on = self.near_goal_off is None
         return {"inset_px": self.near_goal_growth, "auto": c.near_goal_inset_px == NEAR_GOAL_AUTO,
                 "within_px": c.near_goal_within_px if on else None,
-                "scale": (self.resolved.near_goal_scale or working_scale(self.tracker)) if on else None,
+                "scale": (self.resolved.near_goal_scale or self.tracker.working_scale) if on else None,
                 "off": self.near_goal_off, "switched_at_step": switched_at,
                 "note": "the step from which the grown template's corners were the features (null: never switched); "
                         "off: why the run kept one template"}

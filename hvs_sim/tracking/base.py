@@ -12,7 +12,7 @@ from enum import StrEnum
 
 import numpy as np
 
-from hvs_sim.errors import InputError, StateError
+from hvs_sim.errors import ConfigError, InputError, StateError
 from hvs_sim.tracking.frames import check_frame, check_roi, roi_center, roi_corners
 from hvs_sim.tracking.warp import apply, fit_similarity, local_affine, matrix_to_pose
 
@@ -64,12 +64,26 @@ class Tracker:
 
     name = "base"
     warp = "similarity"  # the warp model it estimates (warp.WARPS): a homography gives perspective corners
+    # what a servo loop asks of it (servo/plan.py): seed(A) places its estimate (a goal template seeded on the first
+    # frame), and it takes the loop's grown near-goal template (servo/templates.py)
+    can_seed = True
+    near_goal = True
 
     def __init__(self):
         self._shape: tuple[int, int] | None = None
         self.A = np.eye(3)
         self.template_confidence = 1.0  # trackability of the template taken at init, in [0, 1] (set by _init)
         self.notes: list[str] = []  # what a user should be told about this run (a weak template, a choice made)
+
+    @property
+    def working_scale(self) -> float | None:
+        """The resolution it aligns at, relative to the frame's (None: it has no such setting)."""
+        return None
+
+    def with_scale(self, scale: float) -> Tracker:
+        """A fresh tracker with this one's settings that aligns at `scale` of the frame (a servo's near-goal template:
+        a large box tracked at a lower resolution). ConfigError where it has no working scale."""
+        raise ConfigError(f"tracker {self.name!r} has no working scale to change")
 
     def init(self, frame, roi) -> Track:
         """Take the template at `roi` of `frame`. Atomic: if it raises, the tracker is uninitialised

@@ -6,6 +6,8 @@ The work is done by an `Aligner` (aligner.py), which the hybrid tracker composes
 
 from __future__ import annotations
 
+import dataclasses
+
 from hvs_sim.tracking.aligner import Aligner, DeepLKConfig, select_device
 from hvs_sim.tracking.base import Estimate, Mode, Tracker
 from hvs_sim.tracking.trackability import check_trackable
@@ -22,6 +24,15 @@ class DeepLKTracker(Tracker):
         self.aligner = Aligner(config)
         self.warp = config.warp
         self._seeded = False  # the next frame aligns from the seed (Tracker.seed) too, not only global matches
+
+    @property
+    def working_scale(self) -> float:
+        return self.config.scale
+
+    def with_scale(self, scale: float) -> DeepLKTracker:
+        tracker = DeepLKTracker(dataclasses.replace(self.config, scale=scale))
+        tracker.name = self.name
+        return tracker
 
     def _init(self, frame, roi) -> None:
         self._seeded = False

@@ -53,6 +53,7 @@ jump from where the target's own motion puts it needs a unique match); `"auto"` 
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections import deque
 
@@ -133,6 +134,15 @@ class HybridTracker(Tracker):
         # working images), "coarse" (global match and OP_t of the seeds), "occlusion" (colour OP_t),
         # "features" (VGG), "lk", "refine" (ECC, homography), "sources" (the predict path)
         self.stage_ms: dict[str, float] = {}
+
+    @property
+    def working_scale(self) -> float:
+        return self.hconfig.deep.scale
+
+    def with_scale(self, scale: float) -> HybridTracker:
+        tracker = HybridTracker(dataclasses.replace(self.hconfig, deep=dataclasses.replace(self.hconfig.deep, scale=scale)))
+        tracker.name = self.name
+        return tracker
 
     def _init(self, frame, roi) -> None:
         al = self.aligner
