@@ -36,7 +36,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 from hvs_sim.bench.budget import WEAK, template_roi, track_still, weak_directions, weak_offset
 from hvs_sim.bench.splits import check_tuning_seeds
-from hvs_sim.control.ibvs import interaction_matrix
+from hvs_sim.control.features import interaction_matrix
 from hvs_sim.errors import InputError
 from hvs_sim.geometry import offset_pose
 from hvs_sim.outputs import write_atomic

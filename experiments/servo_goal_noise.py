@@ -32,7 +32,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 from hvs_sim.bench.servo import episode_scenario
 from hvs_sim.bench.splits import check_tuning_seeds
-from hvs_sim.control.ibvs import interaction_matrix
+from hvs_sim.control.features import interaction_matrix
 from hvs_sim.errors import InputError
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import CameraConfig

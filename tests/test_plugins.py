@@ -11,9 +11,10 @@ import hvs_sim
 from hvs_sim import plugins
 from hvs_sim.cli import main
 from hvs_sim.control.dvs import luminance_interaction
+from hvs_sim.control.features import scale_depths
 from hvs_sim.control.ibvs import IBVSConfig, IBVSController
 from hvs_sim.control.pbvs import PBVSController
-from hvs_sim.control.protocol import ControlInput, scale_depths
+from hvs_sim.control.protocol import ControlInput
 from hvs_sim.errors import ConfigError
 from hvs_sim.render.camera import intrinsics
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario
@@ -129,8 +130,7 @@ def test_ibvs_and_pbvs_give_the_same_twist_through_the_law_interface_as_before()
     f = desired + np.array([[10.0, -5], [12, -3], [9, -6], [11, -4]])
     for law in (IBVSController(K, desired, 0.8, IBVSConfig(damping=0.002), ("vx", "vy", "vz", "wx", "wy", "wz")),
                 PBVSController(K, desired, 0.8, IBVSConfig())):
-        s, s_star = law.image.normalise(f) if hasattr(law, "image") else law.normalise(f), None
-        s_star = (desired - K[:2, 2]) / np.diag(K)[:2]
+        s, s_star = law.points.error(f)[0], law.points.s_star
         for mode in ("align", "predict"):
             inp = ControlInput(features=s, desired=s_star, depths=scale_depths(s, s_star, 0.8), desired_depth=0.8, K=K,
                                features_px=f, desired_px=desired, mode=mode)

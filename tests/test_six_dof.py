@@ -210,7 +210,7 @@ def test_pbvs_commands_the_camera_straight_to_the_goal():
 
 
 def test_pbvs_takes_the_least_squares_pose_of_noisy_corners():
-    from hvs_sim.control.pbvs import target_model, target_pose
+    from hvs_sim.control.pose import target_model, target_pose
 
     K = intrinsics(640, 480, 45)
     desired = np.array([[270.0, 205], [370, 205], [370, 275], [270, 275]])
@@ -229,9 +229,9 @@ def test_damped_pbvs_shrinks_only_what_the_corners_barely_see():
     desired = np.array([[270.0, 205], [370, 205], [370, 275], [270, 275]])  # a 15 cm target at 0.8 m
     plain = PBVSController(K, desired, 0.8, IBVSConfig(damping=0.0), dofs=DOF_NAMES)
     damped = PBVSController(K, desired, 0.8, IBVSConfig(damping=0.002), dofs=DOF_NAMES)
-    from hvs_sim.control.ibvs import interaction_matrix
+    from hvs_sim.control.features import interaction_matrix
 
-    s = plain.image.s_star
+    s = plain.points.s_star
     L = interaction_matrix(s, np.full(4, 0.8))
     _, sv, Vt = np.linalg.svd(L)
     weak, strong = Vt[-1], Vt[0]  # a sideways shift traded against a tilt; what moves the corners most
@@ -329,7 +329,7 @@ def test_run_json_carries_the_pose_error(tmp_path, capsys):
 
 
 def test_damped_pseudo_inverse_is_the_pseudo_inverse_at_zero_and_damps_the_weak_direction():
-    from hvs_sim.control.ibvs import damped_pinv, interaction_matrix
+    from hvs_sim.control.features import damped_pinv, interaction_matrix
 
     K = intrinsics(640, 480, 45)
     desired = np.array([[260.0, 200], [380, 200], [380, 280], [260, 280]])

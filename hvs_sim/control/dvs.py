@@ -19,6 +19,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from hvs_sim.control.features import point_rows
 from hvs_sim.control.ibvs import DOF_NAMES, ControlOutput, IBVSConfig, bound_twist
 from hvs_sim.control.protocol import ControlInput
 from hvs_sim.errors import InputError
@@ -32,9 +33,7 @@ DVS_BLUR_SIGMA = 1.0  # px: the goal image smoothed before its gradients, the cu
 def luminance_interaction(Ix: np.ndarray, Iy: np.ndarray, x: np.ndarray, y: np.ndarray, Z) -> np.ndarray:
     """(N, 6) interaction matrix of the luminance at normalised points (x, y) of depth Z, gradients (Ix, Iy) in
     intensity per unit of normalised coordinate."""
-    Z = np.broadcast_to(np.asarray(Z, float), x.shape)
-    Lx = np.stack([-1 / Z, 0 * x, x / Z, x * y, -(1 + x * x), y], 1)
-    Ly = np.stack([0 * x, -1 / Z, y / Z, 1 + y * y, -x * y, -x], 1)
+    Lx, Ly = point_rows(x, y, Z)
     return -(Ix[:, None] * Lx + Iy[:, None] * Ly)
 
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hvs_sim.control.pbvs import target_model, target_pose
+from hvs_sim.control.pose import target_model, target_pose
 from hvs_sim.render.camera import CameraPose
 from hvs_sim.validate import check_number
 

@@ -17,12 +17,20 @@ from typing import Protocol
 
 import numpy as np
 
-from hvs_sim.control.protocol import DOF_NAMES, ControlInput, rms_size, scale_depths
-from hvs_sim.errors import ConfigError, InputError, choice_error
+from hvs_sim.control.features import (
+    DEPTH_SOURCES,
+    INTERACTION_AT,
+    PointFeatures,
+    condition_number,
+    damped_pinv,
+    matrix_rank,
+    normalise,
+)
+from hvs_sim.control.protocol import DOF_NAMES, ControlInput
+from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.validate import check_number
 
 SIMILARITY_DOFS = ("vx", "vy", "vz", "wz")  # what a similarity tracker's corners observe
-RANK_TOL = 1e-6  # singular values below this × the largest count as zero (rank of L)
 CONTROLLERS = ("ibvs", "pbvs", "dvs")  # the built-in laws (dvs: photometric, control/dvs.py)
 # tracked corners' noise through L⁺ (cond ~540 at the goal) makes velocities the arm cannot follow: undamped the
 # 6-DOF servo benchmark ended 10-17 px off. 0.005 held it but closed L's weak direction in ~4 s; with the averaged
@@ -34,37 +42,11 @@ TRACKED_6DOF_DAMPING = 0.002
 # translation, which says nothing of pitch and yaw; on six DOF, commanding them from predicted corners drove the
 # arm up to 0.5 m along L's weak direction through a long occlusion (servo benchmark, pause)
 PREDICT_DOFS = SIMILARITY_DOFS
-INTERACTION_AT = ("current", "desired", "mean")
-DEPTH_SOURCES = ("scale", "true")
 
 
 def dofs_for(warp: str) -> tuple[str, ...]:
     """The DOFs a tracker's corners observe: all six for perspective corners, four for a similarity."""
     return DOF_NAMES if warp == "homography" else SIMILARITY_DOFS
-
-
-def matrix_rank(sv: np.ndarray) -> int | None:
-    """Rank from singular values (RANK_TOL relative to the largest); None when there are none."""
-    return int((sv > RANK_TOL * sv.max()).sum()) if len(sv) and sv.max() > 0 else (0 if len(sv) else None)
-
-
-def condition_number(sv: np.ndarray) -> float | None:
-    """σ_max / σ_min; None when there are no singular values or the smallest is zero (rank-deficient)."""
-    return float(sv.max() / sv.min()) if len(sv) and sv.min() > 0 else None
-
-
-MIN_DESIRED_SPREAD_PX = 1.0  # desired points closer together than this make L singular
-
-
-def interaction_matrix(xy: np.ndarray, Z: np.ndarray) -> np.ndarray:
-    """Stacked 2×6 interaction matrices of normalised points xy (N, 2) at depths Z (N,)."""
-    xy = np.asarray(xy, float).reshape(-1, 2)
-    Z = np.broadcast_to(np.asarray(Z, float), (len(xy),))
-    x, y = xy[:, 0], xy[:, 1]
-    L = np.zeros((2 * len(xy), 6))
-    L[0::2] = np.stack([-1 / Z, 0 * x, x / Z, x * y, -(1 + x * x), y], 1)
-    L[1::2] = np.stack([0 * x, -1 / Z, y / Z, 1 + y * y, -x * y, -x], 1)
-    return L
 
 
 @dataclass(frozen=True)
@@ -133,45 +115,60 @@ class Law(Protocol):
     def compute(self, inp: ControlInput, /) -> ControlOutput: ...
 
 
+def scheduled_gain(config: IBVSConfig, err_inf: float) -> float:
+    """λ for the largest feature error |e|∞: constant, or the adaptive gain from λ(0) to λ(∞) (IBVSConfig.gain_inf),
+    as ViSP's vpAdaptiveGain. IBVS and PBVS share it."""
+    if config.gain_inf is None:
+        return config.gain
+    d = config.gain - config.gain_inf
+    return d * math.exp(-config.gain_slope * err_inf / d) + config.gain_inf
+
+
+@dataclass(frozen=True)
+class ImageTerms:
+    """What a law on the points reads from the current features at a step: the error to s*, the gain it earns and
+    the controlled columns of L (IBVS steers by them; PBVS reports them beside its pose error)."""
+
+    error: np.ndarray  # (2N,) normalised s − s*
+    error_px: float  # mean corner distance to s* (px)
+    gain: float  # λ, times predict_gain while the tracker predicts
+    cols: list[int]  # the columns of L commanded at this step (PREDICT_DOFS' while predicting)
+    L: np.ndarray  # (2N, len(cols)) those columns
+    singular_values: np.ndarray  # of L's controlled columns
+
+
+def image_terms(points: PointFeatures, config: IBVSConfig, features_px, depths: np.ndarray | None, mode: str,
+                cols: list[int], predict_cols: list[int]) -> ImageTerms:
+    """The step's ImageTerms of the features (pixels): their error, depths (config.depth), L where config.interaction
+    says, the scheduled gain."""
+    s, e, err_px = points.error(features_px)
+    L = points.matrix(s, points.depths(s, depths, config.depth), config.interaction)
+    lam = scheduled_gain(config, float(np.abs(e).max()))
+    if mode == "predict":
+        lam *= config.predict_gain
+    used = predict_cols if mode == "predict" else cols
+    Lc = L[:, used]
+    return ImageTerms(e, err_px, lam, used, Lc, np.linalg.svd(Lc, compute_uv=False))
+
+
 class IBVSController:
     """Point-feature IBVS to fixed desired features s* (pixels), given intrinsics K."""
 
     def __init__(self, K: np.ndarray, desired_px: np.ndarray, desired_depth: float, config: IBVSConfig = IBVSConfig(),
                  dofs: tuple[str, ...] = SIMILARITY_DOFS):
         """`dofs`: the DOFs the features observe (dofs_for: the loop passes them), used when config.dofs is None."""
-        try:
-            self.K = np.asarray(K, float)
-            self.desired_px = np.asarray(desired_px, float).reshape(-1, 2)
-        except (TypeError, ValueError):
-            raise InputError("K must be a 3×3 intrinsic matrix and desired_px N×2 pixels (N >= 3)") from None
-        if self.K.shape != (3, 3) or not np.isfinite(self.K).all() or self.K[0, 0] <= 0 or self.K[1, 1] <= 0:
-            raise InputError(f"K must be a finite 3×3 intrinsic matrix with fx, fy > 0, got {self.K.tolist()}")
-        if len(self.desired_px) < 3 or not np.isfinite(self.desired_px).all():
-            raise InputError(f"desired_px must be at least 3 finite points (N×2 pixels), got {len(self.desired_px)}")
-        if np.ptp(self.desired_px, axis=0).max() < MIN_DESIRED_SPREAD_PX:
-            raise InputError(f"desired_px points coincide (spread < {MIN_DESIRED_SPREAD_PX} px): the interaction matrix "
-                             "would be singular; give distinct target corners")
-        self.config = config
-        if not (np.isfinite(desired_depth) and desired_depth > 0):
-            raise ConfigError(f"desired depth must be > 0 m, got {desired_depth}")
-        self.desired_depth = float(desired_depth)
-        self.s_star = self.normalise(self.desired_px)
+        self.points = PointFeatures(K, desired_px, desired_depth)
+        self.K, self.desired_px, self.s_star = self.points.K, self.points.desired_px, self.points.s_star
+        self.desired_depth, self.config = self.points.desired_depth, config
         self.dofs = tuple(config.dofs or dofs)
         self.cols = [DOF_NAMES.index(d) for d in self.dofs]
         self.predict_cols = [c for c in self.cols if DOF_NAMES[c] in PREDICT_DOFS]
 
     def normalise(self, px: np.ndarray) -> np.ndarray:
-        K = self.K
-        return np.stack([(px[:, 0] - K[0, 2]) / K[0, 0], (px[:, 1] - K[1, 2]) / K[1, 1]], 1)
+        return normalise(px, self.K)
 
     def gain(self, err_inf: float) -> float:
-        c = self.config
-        if c.gain_inf is None:
-            return c.gain
-        d = c.gain - c.gain_inf
-        return d * math.exp(-c.gain_slope * err_inf / d) + c.gain_inf
-
-    scale_of = staticmethod(rms_size)
+        return scheduled_gain(self.config, err_inf)
 
     def compute(self, features_px, depths: np.ndarray | None = None, mode: str = "align") -> ControlOutput:
         """Twist for the current features: a ControlInput (the law interface, control/protocol.py; its pixels and,
@@ -180,44 +177,13 @@ class IBVSController:
         if isinstance(features_px, ControlInput):
             inp = features_px
             features_px, depths, mode = inp.features_px, inp.depths, inp.mode
-        f = np.asarray(features_px, float).reshape(-1, 2)
-        if f.shape != self.desired_px.shape or not np.isfinite(f).all():
-            raise InputError(f"features must be finite pixels of shape {self.desired_px.shape}, got {f.shape}")
-        s = self.normalise(f)
-        e = (s - self.s_star).reshape(-1)
-        err_px = float(np.linalg.norm(f - self.desired_px, axis=1).mean())
-        if self.config.depth == "true":
-            if depths is None or not np.all(np.asarray(depths) > 0):
-                raise InputError("depth='true' needs positive per-point depths from the simulator")
-            Z = np.asarray(depths, float)
-        else:  # depth from apparent size: Z = Z* · size(s*) / size(s)
-            Z = scale_depths(s, self.s_star, self.desired_depth)
-        Zs = np.full(len(f), self.desired_depth)
-        if self.config.interaction == "current":
-            L = interaction_matrix(s, Z)
-        elif self.config.interaction == "desired":
-            L = interaction_matrix(self.s_star, Zs)
-        else:
-            L = 0.5 * (interaction_matrix(s, Z) + interaction_matrix(self.s_star, Zs))
-        lam = self.gain(float(np.abs(e).max()))
-        if mode == "predict":
-            lam *= self.config.predict_gain
+        img = image_terms(self.points, self.config, features_px, depths, mode, self.cols, self.predict_cols)
         twist = np.zeros(6)
-        cols = self.predict_cols if mode == "predict" else self.cols
-        Lc = L[:, cols]
-        sv = np.linalg.svd(Lc, compute_uv=False)
         if mode != "lost":
-            twist[cols] = -lam * (damped_pinv(Lc, (self.config.damping or 0.0) * sv.max()) @ e)
+            mu = (self.config.damping or 0.0) * img.singular_values.max()
+            twist[img.cols] = -img.gain * (damped_pinv(img.L, mu) @ img.error)
         twist, saturated = bound_twist(twist, self.config.max_linear, self.config.max_angular)
-        return ControlOutput(twist, e, err_px, lam, saturated, sv, self.dofs)
-
-
-def damped_pinv(L: np.ndarray, mu: float) -> np.ndarray:
-    """(LᵀL + μ²I)⁻¹Lᵀ through the SVD (L⁺ when μ = 0)."""
-    if mu <= 0:
-        return np.linalg.pinv(L)
-    U, sv, Vt = np.linalg.svd(L, full_matrices=False)
-    return (Vt.T * (sv / (sv ** 2 + mu ** 2))) @ U.T
+        return ControlOutput(twist, img.error, img.error_px, img.gain, saturated, img.singular_values, self.dofs)
 
 
 def bound_twist(twist: np.ndarray, max_linear: float, max_angular: float) -> tuple[np.ndarray, bool]:

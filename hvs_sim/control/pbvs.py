@@ -26,34 +26,11 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from hvs_sim.control.ibvs import SIMILARITY_DOFS, ControlOutput, IBVSConfig, IBVSController, bound_twist
-from hvs_sim.control.protocol import ControlInput
+from hvs_sim.control.features import PointFeatures, interaction_matrix
+from hvs_sim.control.ibvs import PREDICT_DOFS, SIMILARITY_DOFS, ControlOutput, IBVSConfig, bound_twist, image_terms
+from hvs_sim.control.pose import target_model, target_pose
+from hvs_sim.control.protocol import DOF_NAMES, ControlInput
 from hvs_sim.errors import InputError
-
-
-def target_model(desired_px: np.ndarray, desired_depth: float, K: np.ndarray) -> np.ndarray:
-    """The planar target (N, 3) as the controller knows it: the desired corners s* back-projected at depth Z*."""
-    s = (np.asarray(desired_px, float).reshape(-1, 2) - K[:2, 2]) / np.diag(K)[:2]
-    return np.column_stack([s * desired_depth, np.full(len(s), desired_depth)])
-
-
-def target_pose(model: np.ndarray, K: np.ndarray, corners_px: np.ndarray,
-                refine: bool = False) -> tuple[np.ndarray, np.ndarray] | None:
-    """(R, t) of the planar `model` in the camera frame from its corners (pixels): cv2.solvePnP with IPPE; None when
-    OpenCV finds no finite pose (a degenerate quad). IPPE fits the plane's homography to the four corners exactly
-    (eight numbers) and reads the pose off it, so corner noise in the homography's two projective parameters lands
-    in the pose too; `refine` then minimises the reprojection error over the pose's six parameters
-    (cv2.solvePnPRefineLM): the least-squares pose, whose noise is what L⁺ makes of the corners' (PBVS)."""
-    pts = np.asarray(corners_px, np.float64).reshape(-1, 1, 2)
-    try:
-        ok, rvec, tvec = cv2.solvePnP(model, pts, K, None, flags=cv2.SOLVEPNP_IPPE)
-        if ok and refine and np.all(np.isfinite(rvec)) and np.all(np.isfinite(tvec)):
-            rvec, tvec = cv2.solvePnPRefineLM(model, pts, K, None, rvec, tvec)
-    except cv2.error:
-        return None
-    if not ok or not np.all(np.isfinite(rvec)) or not np.all(np.isfinite(tvec)):
-        return None
-    return cv2.Rodrigues(rvec)[0], tvec.reshape(3)
 
 
 class PBVSController:
@@ -62,13 +39,14 @@ class PBVSController:
     def __init__(self, K: np.ndarray, desired_px: np.ndarray, desired_depth: float, config: IBVSConfig | None = None,
                  dofs: tuple[str, ...] = SIMILARITY_DOFS):
         config = config or IBVSConfig()
-        # the same checks and normalisation as IBVS (and its image error for the gain schedule)
-        self.image = IBVSController(K, desired_px, desired_depth, config, dofs)
-        self.config, self.K, self.desired_px = config, self.image.K, self.image.desired_px
-        self.dofs, self.cols = self.image.dofs, self.image.cols
-        s_star = self.image.s_star
-        if len(s_star) < 4:
-            raise InputError(f"PBVS needs at least 4 coplanar corners for the target's pose, got {len(s_star)}")
+        # s* checked and normalised as IBVS's: its image error, gain schedule and L are reported beside the pose's
+        self.points = PointFeatures(K, desired_px, desired_depth)
+        self.config, self.K, self.desired_px = config, self.points.K, self.points.desired_px
+        self.dofs = tuple(config.dofs or dofs)
+        self.cols = [DOF_NAMES.index(d) for d in self.dofs]
+        self.predict_cols = [c for c in self.cols if DOF_NAMES[c] in PREDICT_DOFS]
+        if len(self.points.s_star) < 4:
+            raise InputError(f"PBVS needs at least 4 coplanar corners for the target's pose, got {len(self.points.s_star)}")
         self.model = target_model(self.desired_px, desired_depth, self.K)
 
     def pose(self, features_px: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -83,11 +61,10 @@ class PBVSController:
         interaction matrix of the corners (at the current and desired corners, as IBVS's), μ = damping · σ_max(L).
         The pose from four corners of a small target is noisy along L's weak direction (a sideways shift traded
         against a tilt); this is the least-squares pose error regularised toward zero motion there."""
-        from hvs_sim.control.ibvs import interaction_matrix
-
-        s = self.image.normalise(np.asarray(features_px, float).reshape(-1, 2))
-        Z = np.full(len(s), self.image.desired_depth)
-        L = 0.5 * (interaction_matrix(s, Z) + interaction_matrix(self.image.s_star, Z))
+        pts = self.points
+        s = pts.error(features_px)[0]
+        Z = np.full(len(s), pts.desired_depth)
+        L = 0.5 * (interaction_matrix(s, Z) + interaction_matrix(pts.s_star, Z))
         A = L.T @ L
         mu2 = (self.config.damping * np.sqrt(np.linalg.eigvalsh(A)[-1])) ** 2
         return np.linalg.solve(A + mu2 * np.eye(6), A @ error)
@@ -97,7 +74,8 @@ class PBVSController:
         pose gives them)."""
         if isinstance(features_px, ControlInput):
             features_px, depths, mode = features_px.features_px, features_px.depths, features_px.mode
-        img = self.image.compute(features_px, None if self.config.depth != "true" else depths, mode)
+        img = image_terms(self.points, self.config, features_px, None if self.config.depth != "true" else depths, mode,
+                          self.cols, self.predict_cols)
         twist = np.zeros(6)
         if mode != "lost":
             R, t = self.pose(features_px)
@@ -106,7 +84,6 @@ class PBVSController:
             if self.config.damping:  # the pose's poorly seen directions shrunk, as damped IBVS does (module docstring)
                 error = self.shrunk(error, features_px)
             full = img.gain * error
-            cols = self.image.predict_cols if mode == "predict" else self.cols  # ibvs.PREDICT_DOFS
-            twist[cols] = full[cols]
+            twist[img.cols] = full[img.cols]  # ibvs.PREDICT_DOFS' while predicting
         twist, saturated = bound_twist(twist, self.config.max_linear, self.config.max_angular)
         return ControlOutput(twist, img.error, img.error_px, img.gain, saturated, img.singular_values, self.dofs)

@@ -82,13 +82,3 @@ def check_dofs(dofs, who: str) -> tuple[str, ...]:
     if not dofs or any(d not in DOF_NAMES for d in dofs):
         raise ValueError(f"{who} declared dofs {dofs!r}; accepted: a non-empty subset of {', '.join(DOF_NAMES)}")
     return tuple(d for d in DOF_NAMES if d in dofs)
-
-
-def scale_depths(s: np.ndarray, s_star: np.ndarray, desired_depth: float) -> np.ndarray:
-    """Depth of every point from the apparent size: Z = Z* · size(s*) / size(s) (size: RMS distance to the centroid)."""
-    return np.full(len(s), desired_depth * rms_size(s_star) / max(rms_size(s), 1e-9))
-
-
-def rms_size(points: np.ndarray) -> float:
-    """Size of a point set: RMS distance to its centroid (a similarity scale up to a constant)."""
-    return float(np.sqrt(((points - points.mean(0)) ** 2).sum(1).mean()))
