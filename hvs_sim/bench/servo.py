@@ -17,6 +17,7 @@ import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -27,7 +28,10 @@ from hvs_sim.outputs import write_atomic
 from hvs_sim.provenance import code_provenance
 from hvs_sim.sensor import REALISTIC_PRESET
 from hvs_sim.servo.config import LoopConfig
-from hvs_sim.servo.parts import NEAR_GOAL_AUTO, NEAR_GOAL_SCALE
+from hvs_sim.servo.parts import NEAR_GOAL_AUTO
+
+if TYPE_CHECKING:
+    from hvs_sim.servo.plan import Method
 from hvs_sim.validate import check_number
 
 SERVO_METHODS = ("ground_truth", "ground_truth/pbvs", "hybrid:homography", "hybrid:homography/pbvs", "hybrid")
@@ -134,7 +138,7 @@ class ServoBenchConfig:
             raise ConfigError(f"goal_frames ({self.goal_frames}) averages frames into a goal image; with template_from "
                               "'start' no episode has one: leave one of them out")
         if self.near_goal_scale is not None and not any(
-                takes_near_goal_scale(*parse_method(m)[:2], self.template_from) for m in self.trackers):
+                method_plan(m, self.template_from, self.damping).takes_near_goal_scale for m in self.trackers):
             raise ConfigError(f"--near-goal-scale ({self.near_goal_scale}) is the working scale of a built-in tracker on "
                               "the near-goal template, and no method here has one (a goal template and a tracker with "
                               "a working scale, e.g. hybrid:homography): leave it out")
@@ -143,8 +147,7 @@ class ServoBenchConfig:
                                        ("a negative --roi-inset", (self.roi_inset_px or 0) < 0)) if on]
         if grown:  # a grown template needs a tracked goal template: refused before any episode, not in the middle
             for m in self.trackers:
-                tracker, warp, _, _ = parse_method(m)
-                if not has_goal_template(tracker, warp, self.template_from):
+                if not method_plan(m, self.template_from, self.damping).goal_template:
                     raise ConfigError(f"servo method {m!r} has no goal template to grow ({grown[0]} applies to a "
                                       "tracker on six DOF, e.g. hybrid:homography): run it without that option")
 
@@ -229,28 +232,18 @@ def episode_offset(seed: int, standoff: float = 0.8, draw: int = 0, tilt: float 
     return tuple(float(v) + 0.0 for v in rng.uniform(*offset_range(standoff, tilt)))
 
 
-def has_goal_template(tracker: str, warp: str | None, template_from: str | None) -> bool:
-    """Whether a servo method's episodes track a template cut from the goal image (LoopConfig.template_from as the
-    loop resolves it for the method's tracker and warp)."""
+def method_plan(method: str, template_from: str | None, damping: float | None = None) -> Method:
+    """The method's parts and plan as its episodes' loop resolves them (servo/plan.py: build_method builds its tracker
+    and an outside law or policy, no scene): whether it tracks a goal template, whether near_goal_scale applies."""
     from hvs_sim import plugins
-    from hvs_sim.servo.plan import template_view
+    from hvs_sim.control.ibvs import IBVSConfig
+    from hvs_sim.servo.plan import build_method
 
+    tracker, warp, controller, policy = parse_method(method)
     tracked = tracker not in (plugins.GROUND_TRUTH, plugins.NO_TRACKER)
-    return tracked and template_view(template_from, warp == "homography") == "goal"
-
-
-def takes_near_goal_scale(tracker: str, warp: str | None, template_from: str | None) -> bool:
-    """Whether a servo method's near-goal template is tracked by a built-in tracker built again at
-    LoopConfig.near_goal_scale (a goal template and a tracker with a working scale)."""
-    from hvs_sim.tracking import TRACKER_NAMES, check_tracker
-
-    if tracker not in TRACKER_NAMES or not has_goal_template(tracker, warp, template_from):
-        return False
-    try:
-        check_tracker(tracker, scale=NEAR_GOAL_SCALE, **({"warp": warp} if warp else {}))
-    except ConfigError:  # no working scale (ECC)
-        return False
-    return True
+    config = LoopConfig(controller=controller, policy=policy, ibvs=IBVSConfig(damping=damping),
+                        template_from=template_from if tracked else None, near_goal_inset_px=None)
+    return build_method(tracker, config, {"warp": warp} if warp else None)
 
 
 def episode_scenario(scen_name: str, seed: int, tilt: float = TILT_MAX, **overrides):
@@ -285,7 +278,7 @@ def _episode(args):
     from hvs_sim.scene.scenarios import CameraConfig
 
     (scen_name, method, seed, steps, extra, keep, camera, people, damping, template_from, inset, goal_frames, alpha,
-     size, tilt, run_as, arm, near_goal, near_goal_scale, safety) = args
+     size, tilt, run_as, arm, near_goal, near_goal_scale, safety, goal_template) = args
     episode_threads()
     started = time.perf_counter()
     tracker, warp, controller, policy = parse_method(run_as)
@@ -293,13 +286,12 @@ def _episode(args):
                                 people=people, arm=arm)
     n = steps if steps else scen.n_frames + extra
     tracked = tracker not in (plugins.GROUND_TRUTH, plugins.NO_TRACKER)
-    goal_template = has_goal_template(tracker, warp, template_from)
     loop_config = LoopConfig(steps=n, keep_frames=False, controller=controller, policy=policy,
                              ibvs=IBVSConfig(damping=damping), template_from=template_from if tracked else None,
                              roi_inset_px=inset, goal_frames=goal_frames if goal_template else None,  # with a goal image
                              feature_filter=alpha if tracked else None,  # ... and with tracked corners
                              near_goal_inset_px=near_goal,  # the scale where the loop's switch can use it
-                             near_goal_scale=near_goal_scale if takes_near_goal_scale(tracker, warp, template_from) else None,
+                             near_goal_scale=near_goal_scale,  # where the method takes it (method_plan)
                              safety=SafetyConfig(enabled=safety))
     drawn = time.perf_counter()
     summary, records = run_episode(scen, tracker, loop_config, progress=False, keep_records=keep,
@@ -399,10 +391,12 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True, 
     seeds = config.episode_seeds
     # workers resolve each method again: a name registered in this process travels as its module:callable
     run_as = {m: portable_method(m) if config.workers > 1 else m for m in config.trackers}
+    plans = {m: method_plan(m, config.template_from, config.damping) for m in config.trackers}  # asked once, here
     jobs = [(s, t, seed, config.steps, config.extra_steps, seed == seeds[0], config.camera, config.people, config.damping,
              config.template_from, config.roi_inset_px, config.goal_frames, config.feature_filter,
              (config.width, config.height), np.radians(config.tilt_deg), run_as[t], config.arm,
-             config.near_goal_inset_px, config.near_goal_scale, config.safety)
+             config.near_goal_inset_px, config.near_goal_scale if plans[t].takes_near_goal_scale else None,
+             config.safety, plans[t].goal_template)
             for s in config.scenarios for t in config.trackers for seed in seeds]
     episodes, traces, ran = {}, {}, []
     wall = time.perf_counter()

@@ -17,16 +17,16 @@ from hvs_sim import plugins
 from hvs_sim.control.arm import JointCommand
 from hvs_sim.control.feature_filter import FeatureFilter
 from hvs_sim.control.features import scale_depths
-from hvs_sim.control.ibvs import CONTROLLERS, DOF_NAMES, ControlOutput
+from hvs_sim.control.ibvs import DOF_NAMES, ControlOutput
 from hvs_sim.control.protocol import ControlInput, PolicyInput
 from hvs_sim.control.safety import Envelope, SafetyGate
 from hvs_sim.errors import ConfigError, HvsError, StateError
 from hvs_sim.scene.scenarios import Scenario
 from hvs_sim.sensor import distort_points, undistort_points
 from hvs_sim.servo.config import LoopConfig
-from hvs_sim.servo.laws import ServoLaw, bounded
+from hvs_sim.servo.laws import bounded
 from hvs_sim.servo.parts import Capture, Episode, Measured, frozen
-from hvs_sim.servo.plan import check_combination, loop_tracker, resolve
+from hvs_sim.servo.plan import build_method
 from hvs_sim.servo.records import StepRecord
 from hvs_sim.servo.step import pipelined, sequential
 from hvs_sim.servo.task import Observation, ServoTask
@@ -42,16 +42,13 @@ class ServoLoop:
         config = LoopConfig() if config is None else config
         if scenario.mount != "arm":
             raise ConfigError(f"the closed loop needs mount='arm', got {scenario.mount!r}")
-        # an outside law or policy, built before the scene (and checked with the tracker's name before the tracker)
-        self.law = None if config.controller in CONTROLLERS else plugins.build("controller", config.controller)
-        self.policy = None if config.policy is None else plugins.build("policy", config.policy)
-        self.servo_law = ServoLaw(config.controller, self.law)  # what the law uses, and the law on each template
+        # tracker, law or policy and the plan, built before the scene (servo/plan.py)
+        method = build_method(tracker, config, tracker_config)
+        self.law, self.policy, self.servo_law = method.law, method.policy, method.servo_law
+        self.tracker, self.resolved = method.tracker, method.resolved
         self.image_law = not self.servo_law.caps.features
-        check_combination(tracker, config, self.image_law)
-        self.tracker = loop_tracker(tracker, tracker_config)
         self.scenario, self.tracker_name, self.config = scenario, tracker, config
         self.oracle = tracker == plugins.GROUND_TRUTH
-        self.resolved = resolve(tracker, config, self.tracker, self.law, self.policy)
         near_goal_tracker = None  # the tracker on the near-goal template, when it is another (near_goal_scale)
         if self.resolved.near_goal_scale is not None and self.tracker is not None:
             near_goal_tracker = self.tracker.with_scale(self.resolved.near_goal_scale)

@@ -3,12 +3,14 @@ settings resolved once (ResolvedLoop) from the tracker's and the law's capabilit
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from hvs_sim import plugins
 from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
-from hvs_sim.control.ibvs import TRACKED_6DOF_DAMPING, dofs_for
+from hvs_sim.control.ibvs import CONTROLLERS, TRACKED_6DOF_DAMPING, dofs_for
 from hvs_sim.errors import ConfigError
 from hvs_sim.servo.config import LoopConfig
-from hvs_sim.servo.laws import law_caps
+from hvs_sim.servo.laws import ServoLaw, law_caps
 from hvs_sim.servo.parts import GOAL_FRAMES, NEAR_GOAL_AUTO, NEAR_GOAL_SCALE, ResolvedLoop
 from hvs_sim.tracking import TRACKER_NAMES, Tracker, make_tracker
 
@@ -146,3 +148,36 @@ def _resolve_near_goal(name: str, config: LoopConfig, tracker: Tracker | plugins
     scale = NEAR_GOAL_SCALE if scale is None else float(scale)
     return near, None, (None if abs(own - scale) < 1e-12 else scale)
 
+
+@dataclass(frozen=True)
+class Method:
+    """A servo method's parts as a loop drives them, and its plan: what a ServoLoop builds before its scene, and what
+    a benchmark or a sweep asks of a method (`goal_template`, `takes_near_goal_scale`) instead of re-deriving the
+    loop's rules from its name."""
+
+    tracker: Tracker | plugins.ExternalTracker | None  # None: the oracle, or no tracker (a law on the images, a policy)
+    law: plugins.ExternalController | None  # the outside law, built (None: a built-in)
+    policy: plugins.ExternalPolicy | None  # the outside policy, built (None: none)
+    servo_law: ServoLaw
+    resolved: ResolvedLoop
+
+    @property
+    def goal_template(self) -> bool:
+        """Whether its episodes track a template cut from the goal image."""
+        return self.tracker is not None and self.resolved.template_from == "goal"
+
+    @property
+    def takes_near_goal_scale(self) -> bool:
+        """Whether LoopConfig.near_goal_scale applies to it: a goal template, and a tracker with a working scale."""
+        return self.goal_template and self.tracker is not None and self.tracker.working_scale is not None
+
+
+def build_method(tracker: str, config: LoopConfig, tracker_settings: dict | None = None) -> Method:
+    """The method's law or policy (outside ones built before the tracker, and the two checked against the tracker's
+    name), its tracker and the plan; ConfigError where the combination cannot run. No scene is built."""
+    law = None if config.controller in CONTROLLERS else plugins.build("controller", config.controller)
+    policy = None if config.policy is None else plugins.build("policy", config.policy)
+    servo_law = ServoLaw(config.controller, law)  # what the law uses, and the law on each template
+    check_combination(tracker, config, not servo_law.caps.features)
+    built = loop_tracker(tracker, tracker_settings or {})
+    return Method(built, law, policy, servo_law, resolve(tracker, config, built, law, policy))
