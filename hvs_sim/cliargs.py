@@ -20,14 +20,42 @@ def add_settings_option(p: argparse.ArgumentParser) -> None:
                         "key is an error that lists the accepted ones")
 
 
+def arg_type(parse):
+    """An option's parser whose ValueError argparse reports with its own message (not "invalid value")."""
+    def typed(text: str):
+        try:
+            return parse(text)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+    typed.__name__ = getattr(parse, "__name__", "value")
+    return typed
+
+
 def near_goal_inset(text: str) -> int | str:
     """--near-goal-inset's value: auto, off, or a whole number of px (LoopConfig.near_goal_inset_px checks it)."""
-    if text in ("auto", "off"):
-        return text
-    try:
-        return int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected auto, off or a negative whole number of px, got {text!r}") from None
+    from hvs_sim.servo.config import parse_near_goal_inset
+
+    return arg_type(parse_near_goal_inset)(text)
+
+
+def add_config_options(p: argparse.ArgumentParser, options: list[tuple[str, dict]], help_prefix: str = "") -> None:
+    """Each config field's option (servo.config.loop_options: its flag, help and argparse keywords) under the field's
+    own name, default None: a field the user did not give keeps the config's default (`given_options`)."""
+    for name, cli in options:
+        kw = {k: v for k, v in cli.items() if k not in ("flag", "help")}
+        if callable(kw.get("type")) and kw["type"] not in (int, float, str):
+            kw["type"] = arg_type(kw["type"])
+        p.add_argument(cli["flag"], dest=name, default=None, help=help_prefix + cli["help"], **kw)
+
+
+def given_options(args: argparse.Namespace, options: list[tuple[str, dict]]) -> dict:
+    """The config fields the user gave on the command line (`add_config_options`), by field name."""
+    return {name: getattr(args, name) for name, _ in options if getattr(args, name, None) is not None}
+
+
+def option_flags(args: argparse.Namespace, options: list[tuple[str, dict]]) -> list[tuple[str, object]]:
+    """(flag, value) of each of these options, as the user spelled the flag (for "--x applies to ... only")."""
+    return [(cli["flag"], getattr(args, name, None)) for name, cli in options]
 
 
 def parse_settings(items: list[str]) -> dict:

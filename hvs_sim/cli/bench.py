@@ -8,7 +8,7 @@ import json
 from pathlib import Path
 
 from hvs_sim.cli.common import HelpFormatter, _given, _provenance, add_blur_argument, camera_model, finish_provenance
-from hvs_sim.cliargs import near_goal_inset
+from hvs_sim.cliargs import add_config_options, given_options, option_flags
 from hvs_sim.errors import ConfigError
 from hvs_sim.outputs import fresh_out_dir, write_atomic
 from hvs_sim.validate import check_number
@@ -27,9 +27,7 @@ def _check_bench_options(args) -> None:
                 raise ConfigError(f"{flag} applies to `bench track` only (the servo benchmark's camera is on the arm)")
         return
     for flag, value in (("--episodes", args.episodes), ("--damping", args.damping), ("--arm", args.arm),
-                        ("--template-from", args.template_from), ("--roi-inset", args.roi_inset),
-                        ("--near-goal-inset", args.near_goal_inset), ("--near-goal-scale", args.near_goal_scale),
-                        ("--goal-frames", args.goal_frames), ("--feature-filter", args.feature_filter),
+                        *option_flags(args, bench_loop_options()),
                         ("--extra-steps", args.extra_steps), ("--safety", args.safety)):
         if value is not None:
             raise ConfigError(f"{flag} applies to `bench servo` only")
@@ -276,12 +274,10 @@ def _cmd_bench_sim(args) -> int:
             given = {"trackers": ("ground_truth", "hybrid"), "scenarios": ("walk_by",), "episodes": 1, **given}
         if args.extra_steps is not None and args.smoke:
             raise ConfigError("--extra-steps and --smoke disagree: a smoke run has its own 30 steps; give one")
-        for opt, field in (("damping", "damping"), ("template_from", "template_from"), ("roi_inset", "roi_inset_px"),
-                           ("near_goal_inset", "near_goal_inset_px"), ("near_goal_scale", "near_goal_scale"),
-                           ("goal_frames", "goal_frames"), ("feature_filter", "feature_filter"),
-                           ("extra_steps", "extra_steps"), ("arm", "arm")):  # servo-only settings the user gave
-            if getattr(args, opt) is not None:
-                given[field] = getattr(args, opt)
+        given.update(given_options(args, bench_loop_options()))  # the loop's settings the user gave, by field
+        for field in ("damping", "extra_steps", "arm"):  # the benchmark's own servo-only settings
+            if getattr(args, field) is not None:
+                given[field] = getattr(args, field)
         if args.safety is not None:
             given["safety"] = args.safety == "on"
         suite = getattr(args, "suite_obj", None)
@@ -316,11 +312,9 @@ def _cmd_bench_sim(args) -> int:
 
 
 def add_bench_parser(sub) -> None:
-    from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
     from hvs_sim.control.ibvs import TRACKED_6DOF_DAMPING
     from hvs_sim.scene.scenarios import PEOPLE_STYLES
     from hvs_sim.sensor import REALISTIC_PRESET, SENSOR_NAMES
-    from hvs_sim.servo.parts import GOAL_FRAMES, TEMPLATE_VIEWS
 
     p = sub.add_parser("bench", formatter_class=HelpFormatter, help="benchmarks: tracking accuracy (track) or closed-loop convergence (servo)")
     p.add_argument("what", choices=("track", "servo", "suites", "compare"),
@@ -352,30 +346,12 @@ def add_bench_parser(sub) -> None:
     p.add_argument("--damping", type=float, default=None,
                    help=f"servo only: damped pseudo-inverse, μ = damping × σ_max(L) (IBVSConfig.damping; default: {TRACKED_6DOF_DAMPING} for "
                         "tracked features on six DOF, else 0)")
-    p.add_argument("--template-from", default=None, choices=TEMPLATE_VIEWS,
-                   help="servo only: where the tracker's template comes from (as `run --template-from`; default: goal "
-                        "for tracked corners on six DOF, else start)")
+    add_config_options(p, bench_loop_options(), "servo only, every episode's: ")  # LoopConfig's, as `run` has them
     p.add_argument("--extra-steps", type=int, default=None, metavar="N",
                    help="servo only: steps each episode runs past its scenario's end (default 60)")
-    p.add_argument("--roi-inset", type=int, default=None, metavar="PX",
-                   help="servo only: cut the template this many pixels inside the target's outline (as `run "
-                        "--roi-inset`; default: 8 with a goal template, 0 with a start one; negative: grow it into "
-                        "the target's coplanar surroundings)")
-    p.add_argument("--near-goal-inset", type=near_goal_inset, default=None, metavar="auto|off|PX",
-                   help="servo only: the near-goal template of each episode (as `run --near-goal-inset`; default "
-                        "auto)")
-    p.add_argument("--near-goal-scale", type=float, default=None, metavar="S",
-                   help="servo only: the working scale of the tracker on the near-goal template (as `run "
-                        "--near-goal-scale`)")
     p.add_argument("--safety", choices=("on", "off"), default=None,
                    help="servo only: the loop's safety rule, the hold while it does not see (default on; off: an "
                         "ablation, never a servo to run on a robot; the workspace envelope stays on either way)")
-    p.add_argument("--goal-frames", type=int, default=None, metavar="N",
-                   help=f"servo only: frames averaged into the goal image (as `run --goal-frames`; default {GOAL_FRAMES} with a goal "
-                        "template)")
-    p.add_argument("--feature-filter", type=float, default=None, metavar="ALPHA",
-                   help=f"servo only: α of the feature filter (as `run --feature-filter`; 0 = off; default {FEATURE_FILTER_ALPHA} for tracked "
-                        "corners on six DOF)")
     p.add_argument("--imagery", default="sim", choices=("sim", "natural"),
                    help="track only: sim = rendered scenes (default); natural = photos and procedural pictures moved "
                         "like a hand-held phone, with a drawn person (hvs_sim/bench/natural/)")
@@ -415,3 +391,15 @@ def add_bench_parser(sub) -> None:
                    help="servo only: the arm the camera rides on (default jaco; with --camera robot_cell, the camera a robot "
                         "carries)")
     p.set_defaults(func=cmd_bench)
+
+
+def bench_loop_options() -> list[tuple[str, dict]]:
+    """LoopConfig's command-line options that the servo benchmark sets for every episode: those ServoBenchConfig
+    carries (servo.config.loop_options)."""
+    import dataclasses
+
+    from hvs_sim.bench.servo import ServoBenchConfig
+    from hvs_sim.servo.config import loop_options
+
+    carried = {f.name for f in dataclasses.fields(ServoBenchConfig)}
+    return [(name, cli) for name, cli in loop_options() if name in carried]

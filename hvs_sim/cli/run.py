@@ -10,14 +10,14 @@ import sys
 from pathlib import Path
 
 from hvs_sim.cli.common import EXIT_OUTPUT_FAILED, HelpFormatter, _add_scene_args, _scenario_from_args
-from hvs_sim.cliargs import DEFAULT_TRACKER, add_settings_option, near_goal_inset, parse_settings
+from hvs_sim.cliargs import DEFAULT_TRACKER, add_config_options, add_settings_option, given_options, parse_settings
 from hvs_sim.errors import ConfigError
 from hvs_sim.outputs import check_output_file, prepare_out_dir
 
 
 def cmd_run(args) -> int:
     from hvs_sim.runner import run_episode
-    from hvs_sim.servo.config import LoopConfig
+    from hvs_sim.servo.config import LoopConfig, loop_options
 
     if args.steps < 1:
         raise ConfigError(f"--steps must be >= 1, got {args.steps}")
@@ -57,12 +57,7 @@ def cmd_run(args) -> int:
     config = LoopConfig(steps=args.steps, controller=args.controller, policy=args.policy, evaluate=not args.no_eval,
                         pipeline=args.pipeline,
                         keep_frames=bool(args.rrd or args.spawn or args.figures or args.mcap),
-                        template_from=args.template_from,
-                        roi_inset_px=args.roi_inset, goal_frames=args.goal_frames,
-                        near_goal_inset_px=args.near_goal_inset,
-                        near_goal_px=args.near_goal_px,
-                        near_goal_scale=args.near_goal_scale,
-                        feature_filter=args.feature_filter)
+                        **given_options(args, loop_options()))
     summary, _ = run_episode(scenario, args.tracker, config, rrd=args.rrd, spawn=args.spawn, json_path=args.json,
                              tracker_settings=settings, figures=args.figures, mcap=args.mcap)
     # the pose error over the controlled DOFs: what convergence and error.png judge (all axes are in --json)
@@ -152,9 +147,8 @@ def add_run_parser(sub) -> None:
                         "--policy or --controller dvs; the hybrid_* names are its ablations, "
                         "hvs_sim/tracking/registry.py)")
     p.add_argument("--steps", type=int, default=240, help="control steps at 30 Hz")
-    from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
     from hvs_sim.control.ibvs import CONTROLLERS
-    from hvs_sim.servo.parts import GOAL_FRAMES, NEAR_GOAL_PX, TEMPLATE_VIEWS
+    from hvs_sim.servo.config import loop_options
     from hvs_sim.tracking.warp import WARPS
 
     p.add_argument("--warp", default=None, choices=WARPS,
@@ -166,38 +160,7 @@ def add_run_parser(sub) -> None:
     p.add_argument("--policy", default=None, metavar="NAME",
                    help="an outside policy (image + joints → camera twist) in place of tracker and law: a registered "
                         "or entry-point name, package.module:callable or path/to/file.py:callable")
-    p.add_argument("--template-from", default=None, choices=TEMPLATE_VIEWS,
-                   help="where the tracker's template comes from: the run's first frame, or the goal image (the camera "
-                        "at the reference pose, people left out: teach-by-showing), the tracker then seeded at the "
-                        "target's corners in the first frame (default: goal for a tracker on six DOF, i.e. --warp "
-                        "homography; else start)")
-    p.add_argument("--roi-inset", type=int, default=None, metavar="PX",
-                   help="cut the template this many pixels inside the target's outline, which renders differently "
-                        "from view to view (default: 8 with a goal template, fewer for a target too small for it; 0 "
-                        "with a start template). Negative, with a goal template: grow it that many pixels into the "
-                        "target's surroundings, which must lie in its plane (-90: the wall's neighbouring pictures, "
-                        "the 6-DOF loop's most precise setting, docs/results.md)")
-    p.add_argument("--near-goal-inset", type=near_goal_inset, default="auto", metavar="auto|off|PX",
-                   help="switch to a second goal template, grown beyond the target's outline, once the tracked corners "
-                        "are within --near-goal-px of the goal's: the default template's robustness from afar, the "
-                        "grown one's precision at the goal. auto (the default): grown to a quarter of the goal image, "
-                        "where the run tracks a goal template and the box has room; off: one template; PX "
-                        "(negative): that growth (docs/results.md, the pose bound)")
-    p.add_argument("--near-goal-scale", type=float, default=None, metavar="S",
-                   help="track the near-goal template at this working scale (a built-in tracker's `scale`; default "
-                        "0.25: its VGG features cost what its area does; the intensity refinement stays at full "
-                        "resolution)")
-    p.add_argument("--near-goal-px", type=float, default=None, metavar="PX",
-                   help="mean corner distance to the goal's corners that switches to the near-goal template "
-                        f"(default {NEAR_GOAL_PX})")
-    p.add_argument("--feature-filter", type=float, default=None, metavar="ALPHA",
-                   help="α of the filter that blends the tracked corners with where the camera's own motion (the "
-                        f"joints' forward kinematics) carries the last estimate, in [0, 1]; 0 = off (default "
-                        f"{FEATURE_FILTER_ALPHA} for tracked corners on six DOF, else off)")
-    p.add_argument("--goal-frames", type=int, default=None, metavar="N",
-                   help="frames of the still goal view averaged into the goal image, as a user teaching the goal "
-                        f"averages a few grabs: the camera's noise falls ~√N (default {GOAL_FRAMES} with a goal "
-                        "template; refused with a start template)")
+    add_config_options(p, loop_options())  # LoopConfig's own: --template-from, --roi-inset, --near-goal-*, ...
     p.add_argument("--pipeline", action="store_true",
                    help="track each frame in a second thread while the physics steps and the next frame renders: "
                         "about the longer of the two per step instead of their sum, at one frame of actuation latency")

@@ -13,6 +13,8 @@ import numpy as np
 
 from hvs_sim.sensor import distort_points, undistort_points
 
+MAX_STILL_FRAMES = 256  # Renderer.still_average: more frames than a user would grab at the goal
+
 
 def intrinsics(width: int, height: int, fovy_deg: float) -> np.ndarray:
     """3×3 K of a MuJoCo camera (fovy is the vertical field of view in degrees)."""

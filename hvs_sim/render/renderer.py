@@ -30,7 +30,7 @@ from hvs_sim.render.blur import (
     pixel_rays,
     taps_for,
 )
-from hvs_sim.render.camera import CameraPose, intrinsics, project, transfer_points
+from hvs_sim.render.camera import MAX_STILL_FRAMES, CameraPose, intrinsics, project, transfer_points
 from hvs_sim.render.truth import GroundTruth, boxes_may_cover, count_inside, outline_box
 from hvs_sim.scene.parts import OCCLUDER_GROUP, TARGET_GROUP
 from hvs_sim.scene.world import Scene
@@ -46,9 +46,6 @@ from hvs_sim.sensor import (
     light_scale,
 )
 from hvs_sim.validate import check_number
-
-MAX_STILL_FRAMES = 256  # still_average: more frames than a user would grab at the goal
-
 
 SCENE_VIEW_AZIMUTH_DEG = 50.0  # the third-person view looks past the arm's side at the wall ...
 SCENE_VIEW_ELEVATION_DEG = -20.0  # ... from a little above ...

@@ -3,16 +3,24 @@ servo/plan.py's, decided once per run."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
 from hvs_sim import plugins
+from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
 from hvs_sim.control.ibvs import CONTROLLERS, IBVSConfig
 from hvs_sim.control.safety import SafetyConfig
 from hvs_sim.errors import ConfigError, choice_error
-from hvs_sim.render.renderer import MAX_STILL_FRAMES
-from hvs_sim.servo.parts import NEAR_GOAL_AUTO, NEAR_GOAL_OFF, NEAR_GOAL_PX, TEMPLATE_VIEWS
+from hvs_sim.render.camera import MAX_STILL_FRAMES
+from hvs_sim.servo.parts import (
+    GOAL_FRAMES,
+    NEAR_GOAL_AUTO,
+    NEAR_GOAL_OFF,
+    NEAR_GOAL_PX,
+    NEAR_GOAL_SCALE,
+    TEMPLATE_VIEWS,
+)
 from hvs_sim.tracking import TRACKER_NAMES
 from hvs_sim.validate import check_flags, check_number
 
@@ -25,6 +33,24 @@ IN_VIEW_MARGIN_PX = 2.0  # the target's corners must be this far inside the imag
 CONVERGE_MM, CONVERGE_DEG = 10.0, 1.0
 GOAL_ROI_INSET_PX = 8  # LoopConfig.roi_inset_px's default with a goal template (6-DOF servo benchmark, README)
 MAX_TEMPLATE_GROWTH_PX = 400  # the most a negative roi_inset_px may grow the goal template (it must fit the image)
+
+
+def option(flag: str, help: str, **argparse_kw) -> dict:
+    """A LoopConfig field's command-line option (cliargs.add_config_options adds it to `run` and `bench servo`, under
+    the field's name): its flag, its help and argparse's other keywords (type, metavar, choices). A new option of the
+    loop is then one edit, here."""
+    return {"cli": {"flag": flag, "help": help, **argparse_kw}}
+
+
+def parse_near_goal_inset(text: str) -> int | str:
+    """--near-goal-inset's value: auto, off, or a whole number of px (LoopConfig checks the number)."""
+    if text in (NEAR_GOAL_AUTO, NEAR_GOAL_OFF):
+        return text
+    try:
+        return int(text)
+    except ValueError:
+        raise ValueError(f"expected {NEAR_GOAL_AUTO}, {NEAR_GOAL_OFF} or a negative whole number of px, got {text!r}") \
+            from None
 
 
 @dataclass(frozen=True)
@@ -52,7 +78,11 @@ class LoopConfig:
     # camera model) and the tracker is seeded at the target's corners in the first frame; the features are
     # then most exact where it matters, at the goal. From the tilted start view the template's corners kept a
     # 0.2–0.3 px bias at the goal, which L's weak direction turns into 4–5° (README, 6-DOF servo benchmark)
-    template_from: str | None = None
+    template_from: str | None = field(default=None, metadata=option(
+        "--template-from", choices=TEMPLATE_VIEWS,
+        help="where the tracker's template comes from: the run's first frame, or the goal image (the camera at the "
+             "reference pose, people left out: teach-by-showing), the tracker then seeded at the target's corners in "
+             "the first frame (default: goal for a tracker on six DOF, i.e. --warp homography; else start)"))
     # the template is cut this many pixels inside the target's outline, whose rendering (aliased edge, the
     # flag's side faces and its 4 mm relief above the board) changes from view to view: with the goal template,
     # tracked corners 0.3–0.5 px off near the goal without an inset, 0.02–0.05 px with 8 px. None:
@@ -60,7 +90,12 @@ class LoopConfig:
     # Negative (a goal template only): the box grows that many pixels beyond the outline, into the target's
     # surroundings, which must lie in its plane (the wall's other pictures do; the board behind them sits 4 mm back).
     # The wider template pins the pose's weak directions (figures: docs/tuning.md, roi_inset_px)
-    roi_inset_px: int | None = None
+    roi_inset_px: int | None = field(default=None, metadata=option(
+        "--roi-inset", type=int, metavar="PX",
+        help="cut the template this many pixels inside the target's outline, which renders differently from view to "
+             f"view (default: {GOAL_ROI_INSET_PX} with a goal template, fewer for a target too small for it; 0 with a "
+             "start template). Negative, with a goal template: grow it that many pixels into the target's "
+             "surroundings, which must lie in its plane (-90: the wall's neighbouring pictures, docs/results.md)"))
     # a second, grown goal template (a negative inset, as roi_inset_px) the loop switches to once the tracked corners
     # are within near_goal_px of s* and the grown box is in view: the small template brings the camera near from
     # afar (the grown box may lie out of a tilted start view, where its first alignment fails), the grown one pins
@@ -69,19 +104,40 @@ class LoopConfig:
     # NEAR_GOAL_AREA of the goal image (near_goal_growth), where the loop has a tracker on a goal template and the box
     # can grow NEAR_GOAL_MIN_GROWTH_PX; otherwise one template, and run.json says why. None: one template throughout.
     # A number is that growth, and a run it cannot apply to is refused
-    near_goal_inset_px: int | str | None = NEAR_GOAL_AUTO
-    near_goal_px: float | None = None  # None: NEAR_GOAL_PX (a number with near_goal_inset_px None is refused)
+    near_goal_inset_px: int | str | None = field(default=NEAR_GOAL_AUTO, metadata=option(
+        "--near-goal-inset", type=parse_near_goal_inset, metavar="auto|off|PX",
+        help="switch to a second goal template, grown beyond the target's outline, once the tracked corners are within "
+             "--near-goal-px of the goal's: the default template's robustness from afar, the grown one's precision at "
+             "the goal. auto (the default): grown to a quarter of the goal image, where the run tracks a goal template "
+             "and the box has room; off: one template; PX (negative): that growth (docs/results.md, the pose bound)"))
+    # None: NEAR_GOAL_PX (a number with near_goal_inset_px None is refused)
+    near_goal_px: float | None = field(default=None, metadata=option(
+        "--near-goal-px", type=float, metavar="PX",
+        help=f"mean corner distance to the goal's corners that switches to the near-goal template (default "
+             f"{NEAR_GOAL_PX})"))
     # the working scale (DeepLKConfig.scale) of the tracker on the near-goal template: a built-in tracker is built a
     # second time at this scale for it, as its VGG features cost what the template's area does (the intensity
     # refinement stays at full resolution). None: NEAR_GOAL_SCALE for a built-in tracker, an outside one's own
-    near_goal_scale: float | None = None
+    near_goal_scale: float | None = field(default=None, metadata=option(
+        "--near-goal-scale", type=float, metavar="S",
+        help=f"track the near-goal template at this working scale (the tracker's working_scale; default {NEAR_GOAL_SCALE} for a "
+             "tracker that has one: its VGG features cost what its area does; the intensity refinement stays at full "
+             "resolution)"))
     # frames of the still scene averaged into the goal image (Renderer.still_average; 1 = one frame). None:
     # GOAL_FRAMES with a goal template; a number with a start template is refused (it would do nothing)
-    goal_frames: int | None = None
+    goal_frames: int | None = field(default=None, metadata=option(
+        "--goal-frames", type=int, metavar="N",
+        help="frames of the still goal view averaged into the goal image, as a user teaching the goal averages a few "
+             f"grabs: the camera's noise falls ~√N (default {GOAL_FRAMES} with a goal template; refused with a start "
+             "template)"))
     # α of the feature filter (control/feature_filter.py): the tracked corners blended with where the camera's
     # own motion (forward kinematics) carries the last estimate; 0 = off. None: FEATURE_FILTER_ALPHA for tracked
     # corners on six DOF, off otherwise (exact features need none; the 4-DOF path is the paper's)
-    feature_filter: float | None = None
+    feature_filter: float | None = field(default=None, metadata=option(
+        "--feature-filter", type=float, metavar="ALPHA",
+        help="α of the filter that blends the tracked corners with where the camera's own motion (the joints' forward "
+             f"kinematics) carries the last estimate, in [0, 1]; 0 = off (default {FEATURE_FILTER_ALPHA} for tracked "
+             "corners on six DOF, else off)"))
     # track frame k in a second thread while the physics steps and frame k + 1 renders (ServoLoop.run): the step
     # costs about the longer of the two instead of their sum, and frame k's command acts one frame later
     pipeline: bool = False
@@ -147,3 +203,6 @@ class LoopConfig:
         return NEAR_GOAL_PX if self.near_goal_px is None else float(self.near_goal_px)
 
 
+def loop_options() -> list[tuple[str, dict]]:
+    """(field name, its command-line option) of each LoopConfig field that has one (`option`)."""
+    return [(f.name, f.metadata["cli"]) for f in fields(LoopConfig) if "cli" in f.metadata]
