@@ -136,7 +136,7 @@ def tracker_cases():
 
 
 def control_cases():
-    from hvs_sim.control.ibvs import IBVSConfig, IBVSController
+    from hvs_sim.control.laws.ibvs import IBVSConfig, IBVSController
 
     K = np.array([[500.0, 0, 319.5], [0, 500.0, 239.5], [0, 0, 1]])
     D = np.array([[270.0, 200], [370, 200], [370, 280], [270, 280]])

@@ -29,7 +29,7 @@ _LAZY = {
     "Track": "hvs_sim.tracking",
     "TRACKER_NAMES": "hvs_sim.tracking",
     "make_tracker": "hvs_sim.tracking",
-    "IBVSConfig": "hvs_sim.control.ibvs",
+    "IBVSConfig": "hvs_sim.control.laws.ibvs",
     "register_controller": "hvs_sim.plugins",
     "register_policy": "hvs_sim.plugins",
     "register_tracker": "hvs_sim.plugins",

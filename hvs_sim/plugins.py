@@ -103,7 +103,7 @@ def builtin_names(kind: str) -> tuple[str, ...]:
 
         return (GROUND_TRUTH, NO_TRACKER, *TRACKER_NAMES)
     if kind == "controller":
-        from hvs_sim.control.ibvs import CONTROLLERS
+        from hvs_sim.control.laws.ibvs import CONTROLLERS
 
         return CONTROLLERS
     return ()

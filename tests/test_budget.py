@@ -8,7 +8,7 @@ import pytest
 
 from hvs_sim.cli import main
 from hvs_sim.control.bound import pose_bound
-from hvs_sim.control.dvs import luminance_interaction
+from hvs_sim.control.laws.dvs import luminance_interaction
 from hvs_sim.errors import ConfigError, InputError
 from hvs_sim.sensor import SensorState, jpeg_variance, output_variance, sensor_preset
 

@@ -5,7 +5,7 @@ import pytest
 
 from hvs_sim.control.arm import ArmLimits, camera_twist_to_world, twist_to_joint_velocities
 from hvs_sim.control.features import interaction_matrix
-from hvs_sim.control.ibvs import IBVSConfig, IBVSController
+from hvs_sim.control.laws.ibvs import IBVSConfig, IBVSController
 from hvs_sim.errors import ConfigError, HvsError
 from hvs_sim.geometry import rot_x, rot_y, rot_z
 from hvs_sim.render.camera import intrinsics

@@ -11,7 +11,7 @@ import pytest
 from hvs_sim.bench.servo import ServoBenchConfig
 from hvs_sim.cli import main
 from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA, FeatureFilter
-from hvs_sim.control.ibvs import IBVSConfig, IBVSController
+from hvs_sim.control.laws.ibvs import IBVSConfig, IBVSController
 from hvs_sim.errors import ConfigError
 from hvs_sim.render.camera import CameraPose, intrinsics
 from hvs_sim.render.renderer import Renderer

@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from hvs_sim.cli import main
-from hvs_sim.control.ibvs import IBVSConfig, IBVSController
+from hvs_sim.control.laws.ibvs import IBVSConfig, IBVSController
 from hvs_sim.envs.visual_servo import VisualServoEnv
 from hvs_sim.errors import HvsError
 

@@ -224,7 +224,7 @@ def test_compare_refuses_results_from_before_the_schema(tmp_path):
 
 
 def test_dvs_refuses_a_goal_without_texture():
-    from hvs_sim.control.dvs import DVSController
+    from hvs_sim.control.laws.dvs import DVSController
     from hvs_sim.errors import InputError
     from hvs_sim.render.camera import intrinsics
 

@@ -10,10 +10,10 @@ import pytest
 import hvs_sim
 from hvs_sim import plugins
 from hvs_sim.cli import main
-from hvs_sim.control.dvs import luminance_interaction
 from hvs_sim.control.features import scale_depths
-from hvs_sim.control.ibvs import IBVSConfig, IBVSController
-from hvs_sim.control.pbvs import PBVSController
+from hvs_sim.control.laws.dvs import luminance_interaction
+from hvs_sim.control.laws.ibvs import IBVSConfig, IBVSController
+from hvs_sim.control.laws.pbvs import PBVSController
 from hvs_sim.control.protocol import ControlInput
 from hvs_sim.errors import ConfigError
 from hvs_sim.render.camera import intrinsics
@@ -256,7 +256,7 @@ def test_portable_refuses_a_partial_with_the_reason():
 
 
 def test_dvs_commands_only_the_dofs_it_is_given():
-    from hvs_sim.control.dvs import DVSController
+    from hvs_sim.control.laws.dvs import DVSController
     from hvs_sim.control.protocol import ControlInput
     from hvs_sim.render.camera import intrinsics
 

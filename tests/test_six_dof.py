@@ -9,8 +9,8 @@ import pytest
 from skimage import data
 
 from hvs_sim.cli import main
-from hvs_sim.control.ibvs import DOF_NAMES, SIMILARITY_DOFS, IBVSConfig, IBVSController
-from hvs_sim.control.pbvs import PBVSController
+from hvs_sim.control.laws.ibvs import DOF_NAMES, SIMILARITY_DOFS, IBVSConfig, IBVSController
+from hvs_sim.control.laws.pbvs import PBVSController
 from hvs_sim.errors import ConfigError
 from hvs_sim.geometry import offset_pose
 from hvs_sim.render.camera import intrinsics

@@ -11,7 +11,7 @@ import pytest
 from sklearn.datasets import load_sample_image
 
 from hvs_sim.cli import main
-from hvs_sim.control.ibvs import IBVSConfig
+from hvs_sim.control.laws.ibvs import IBVSConfig
 from hvs_sim.errors import ConfigError, InputError, StateError
 from hvs_sim.render.renderer import Renderer
 from hvs_sim.scene.scenarios import CameraConfig, make_scenario

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from hvs_sim.control.ibvs import IBVSConfig, IBVSController
+from hvs_sim.control.laws.ibvs import IBVSConfig, IBVSController
 from hvs_sim.errors import ConfigError, HvsError, InputError
 from hvs_sim.scene.textures import natural_texture
 from hvs_sim.tracking import make_tracker

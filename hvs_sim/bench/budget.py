@@ -29,9 +29,9 @@ import dataclasses
 import numpy as np
 
 from hvs_sim.control.bound import PoseBound, pose_bound
-from hvs_sim.control.dvs import gradients
 from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
 from hvs_sim.control.features import interaction_matrix
+from hvs_sim.control.laws.dvs import gradients
 from hvs_sim.errors import ConfigError, InputError
 from hvs_sim.geometry import offset_pose
 from hvs_sim.sensor import jpeg_variance, output_variance, sensor_preset, steady_gain

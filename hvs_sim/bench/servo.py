@@ -236,7 +236,7 @@ def method_plan(method: str, template_from: str | None, damping: float | None = 
     """The method's parts and plan as its episodes' loop resolves them (servo/plan.py: build_method builds its tracker
     and an outside law or policy, no scene): whether it tracks a goal template, whether near_goal_scale applies."""
     from hvs_sim import plugins
-    from hvs_sim.control.ibvs import IBVSConfig
+    from hvs_sim.control.laws.ibvs import IBVSConfig
     from hvs_sim.servo.plan import build_method
 
     tracker, warp, controller, policy = parse_method(method)
@@ -272,7 +272,7 @@ def episode_start(scen_name: str, seed: int, tilt: float = TILT_MAX, **overrides
 
 def _episode(args):
     from hvs_sim import plugins
-    from hvs_sim.control.ibvs import IBVSConfig
+    from hvs_sim.control.laws.ibvs import IBVSConfig
     from hvs_sim.control.safety import SafetyConfig
     from hvs_sim.runner import run_episode
     from hvs_sim.scene.scenarios import CameraConfig

@@ -312,7 +312,7 @@ def _cmd_bench_sim(args) -> int:
 
 
 def add_bench_parser(sub) -> None:
-    from hvs_sim.control.ibvs import TRACKED_6DOF_DAMPING
+    from hvs_sim.control.laws.ibvs import TRACKED_6DOF_DAMPING
     from hvs_sim.scene.scenarios import PEOPLE_STYLES
     from hvs_sim.sensor import REALISTIC_PRESET, SENSOR_NAMES
 

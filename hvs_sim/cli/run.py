@@ -147,7 +147,7 @@ def add_run_parser(sub) -> None:
                         "--policy or --controller dvs; the hybrid_* names are its ablations, "
                         "hvs_sim/tracking/registry.py)")
     p.add_argument("--steps", type=int, default=240, help="control steps at 30 Hz")
-    from hvs_sim.control.ibvs import CONTROLLERS
+    from hvs_sim.control.laws.ibvs import CONTROLLERS
     from hvs_sim.servo.config import loop_options
     from hvs_sim.tracking.warp import WARPS
 

@@ -3,7 +3,7 @@ unbiased estimator (tracker + servo law) that reads those pixels with that camer
 
 With image noise of variance σ²_i at pixel i (independent pixels), the Fisher information of a small camera
 displacement δ (vx, vy, vz in m; wx, wy, wz in rad) is F = Σ_i L_iᵀ L_i / σ²_i, L_i the luminance interaction row
-of the pixel (control/dvs.py: the intensity gradient times the point interaction matrix at the target's depth),
+of the pixel (control/laws/dvs.py: the intensity gradient times the point interaction matrix at the target's depth),
 and cov(δ̂) ≥ F⁻¹. Averaging n independent frames divides it by n.
 """
 
@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hvs_sim.control.dvs import luminance_interaction
+from hvs_sim.control.laws.dvs import luminance_interaction
 from hvs_sim.control.protocol import DOF_NAMES
 from hvs_sim.errors import InputError
 

@@ -1,7 +1,7 @@
 """Point features as every law on them reads them: pixels normalised by K (x = (u − cx)/fx), their interaction
 matrix, each point's depth from the target's apparent size, and the least-squares pieces on L (the damped
 pseudo-inverse, its rank and condition). IBVS, PBVS (its reported image error and its pose error's weighting), the
-loop's ControlInput, the photometric law's luminance rows (control/dvs.py) and the budget's weak directions share
+loop's ControlInput, the photometric law's luminance rows (control/laws/dvs.py) and the budget's weak directions share
 them, so that each is written once. Pure numpy.
 """
 

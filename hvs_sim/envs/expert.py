@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hvs_sim.control.ibvs import DOF_NAMES, IBVSConfig, IBVSController
+from hvs_sim.control.laws.ibvs import DOF_NAMES, IBVSConfig, IBVSController
 from hvs_sim.errors import ConfigError
 
 

@@ -19,7 +19,7 @@ import numpy as np
 import torch
 
 from hvs_sim.control.arm import ArmDriver
-from hvs_sim.control.ibvs import IBVSConfig, IBVSController
+from hvs_sim.control.laws.ibvs import IBVSConfig, IBVSController
 from hvs_sim.learn.augment import degrade
 from hvs_sim.render.camera import CameraPose, project
 from hvs_sim.render.renderer import Renderer

@@ -9,7 +9,7 @@ import numpy as np
 
 from hvs_sim import plugins
 from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
-from hvs_sim.control.ibvs import CONTROLLERS, IBVSConfig
+from hvs_sim.control.laws.ibvs import CONTROLLERS, IBVSConfig
 from hvs_sim.control.safety import SafetyConfig
 from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.render.camera import MAX_STILL_FRAMES
@@ -65,7 +65,7 @@ class LoopConfig:
     # Control never reads either: features from the tracker, camera pose from the joints, depth from the
     # tracked scale (IBVSConfig.depth="true" asks the simulator)
     evaluate: bool = True
-    # the servo law: "ibvs" (v = −λ L⁺ e), "pbvs" (pbvs.py), "dvs" (photometric, dvs.py; no tracker), all with `ibvs`'s
+    # the servo law: "ibvs" (v = −λ L⁺ e), "pbvs" (laws/pbvs.py), "dvs" (photometric, laws/dvs.py; no tracker), all with `ibvs`'s
     # gains, or an outside law (hvs_sim.plugins: a registered name, an entry point, module:callable)
     controller: str = "ibvs"
     # an outside policy (image + joints → camera twist, hvs_sim.plugins) in place of tracker and law (tracker "none")

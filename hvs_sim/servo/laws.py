@@ -9,8 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hvs_sim.control.ibvs import DOF_NAMES, ControlOutput, IBVSConfig, IBVSController, Law, bound_twist
-from hvs_sim.control.pbvs import PBVSController
+from hvs_sim.control.laws.ibvs import DOF_NAMES, ControlOutput, IBVSConfig, IBVSController, Law, bound_twist
+from hvs_sim.control.laws.pbvs import PBVSController
 from hvs_sim.control.protocol import ControlInput
 from hvs_sim.errors import ConfigError
 
@@ -34,12 +34,12 @@ def _pbvs(K, desired_px, desired_depth, config, dofs, goal, roi):
 
 
 def _dvs(K, desired_px, desired_depth, config, dofs, goal, roi):
-    from hvs_sim.control.dvs import DVSController  # OpenCV's photometric parts load only for it
+    from hvs_sim.control.laws.dvs import DVSController  # OpenCV's photometric parts load only for it
 
     return DVSController(K, goal, roi, desired_depth, config)
 
 
-# the built-in laws (control.ibvs.CONTROLLERS): what each uses, and how it is built on a template
+# the built-in laws (control.laws.ibvs.CONTROLLERS): what each uses, and how it is built on a template
 BUILT_IN = {"ibvs": (LawCaps(features=True, images=False, damped=True), _ibvs),
             "pbvs": (LawCaps(features=True, images=False, damped=True), _pbvs),
             "dvs": (LawCaps(features=False, images=True, damped=False), _dvs)}

@@ -17,7 +17,7 @@ from hvs_sim import plugins
 from hvs_sim.control.arm import JointCommand
 from hvs_sim.control.feature_filter import FeatureFilter
 from hvs_sim.control.features import scale_depths
-from hvs_sim.control.ibvs import DOF_NAMES, ControlOutput
+from hvs_sim.control.laws.ibvs import DOF_NAMES, ControlOutput
 from hvs_sim.control.protocol import ControlInput, PolicyInput
 from hvs_sim.control.safety import Envelope, SafetyGate
 from hvs_sim.errors import ConfigError, HvsError, StateError

@@ -16,7 +16,7 @@ from hvs_sim.tracking import Track
 
 if TYPE_CHECKING:
     from hvs_sim.control.feature_filter import FeatureFilter
-    from hvs_sim.control.ibvs import Law
+    from hvs_sim.control.laws.ibvs import Law
     from hvs_sim.control.safety import Envelope, SafetyGate
 
 # where the tracked features' template comes from (LoopConfig.template_from): the run's first frame ("start"),

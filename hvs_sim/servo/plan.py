@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 from hvs_sim import plugins
 from hvs_sim.control.feature_filter import FEATURE_FILTER_ALPHA
-from hvs_sim.control.ibvs import CONTROLLERS, TRACKED_6DOF_DAMPING, dofs_for
+from hvs_sim.control.laws.ibvs import CONTROLLERS, TRACKED_6DOF_DAMPING, dofs_for
 from hvs_sim.errors import ConfigError
 from hvs_sim.servo.config import LoopConfig
 from hvs_sim.servo.laws import ServoLaw, law_caps

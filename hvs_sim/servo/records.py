@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from hvs_sim.control.features import condition_number, matrix_rank
-from hvs_sim.control.ibvs import DOF_NAMES
+from hvs_sim.control.laws.ibvs import DOF_NAMES
 from hvs_sim.errors import StateError
 from hvs_sim.render.camera import CameraPose
 from hvs_sim.tracking import Track

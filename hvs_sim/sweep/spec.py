@@ -22,7 +22,7 @@ TIMING_METRICS = ("median_ms", "p95_ms", "steps_per_second", "task_seconds")
 
 def _loop_fields() -> dict[str, str]:
     """Servo settings a sweep may vary: IBVSConfig fields ("ibvs-field") and LoopConfig fields ("loop-field")."""
-    from hvs_sim.control.ibvs import IBVSConfig
+    from hvs_sim.control.laws.ibvs import IBVSConfig
     from hvs_sim.servo.config import LoopConfig
 
     ibvs = {f.name: "ibvs-field" for f in dataclasses.fields(IBVSConfig)}
@@ -84,7 +84,7 @@ def _check_value(kind: str, key: str, value, accepted) -> None:
     elif accepted == "image":
         check_number(key, value, 64, 4096, integer=True)
     elif accepted in ("ibvs-field", "loop-field"):
-        from hvs_sim.control.ibvs import IBVSConfig
+        from hvs_sim.control.laws.ibvs import IBVSConfig
         from hvs_sim.servo.config import LoopConfig
 
         try:

@@ -41,7 +41,7 @@ def _track_task(params: dict) -> dict:
 
 def _loop_config(params: dict):
     """The LoopConfig a servo task's parameters make (steps left to the task)."""
-    from hvs_sim.control.ibvs import IBVSConfig
+    from hvs_sim.control.laws.ibvs import IBVSConfig
     from hvs_sim.servo.config import LoopConfig
 
     fields = _loop_fields()

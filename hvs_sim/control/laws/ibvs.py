@@ -31,7 +31,7 @@ from hvs_sim.errors import ConfigError, choice_error
 from hvs_sim.validate import check_number
 
 SIMILARITY_DOFS = ("vx", "vy", "vz", "wz")  # what a similarity tracker's corners observe
-CONTROLLERS = ("ibvs", "pbvs", "dvs")  # the built-in laws (dvs: photometric, control/dvs.py)
+CONTROLLERS = ("ibvs", "pbvs", "dvs")  # the built-in laws (dvs: photometric, control/laws/dvs.py)
 # tracked corners' noise through L⁺ (cond ~540 at the goal) makes velocities the arm cannot follow: undamped the
 # 6-DOF servo benchmark ended 10-17 px off. 0.005 held it but closed L's weak direction in ~4 s; with the averaged
 # goal image and the feature filter (servo/loop.py) 0.002 closes it ~2.5× faster (tuned on episodes 300-305; README)

@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from hvs_sim.control.features import point_rows
-from hvs_sim.control.ibvs import DOF_NAMES, ControlOutput, IBVSConfig, bound_twist
+from hvs_sim.control.laws.ibvs import DOF_NAMES, ControlOutput, IBVSConfig, bound_twist
 from hvs_sim.control.protocol import ControlInput
 from hvs_sim.errors import InputError
 

@@ -27,7 +27,7 @@ import cv2
 import numpy as np
 
 from hvs_sim.control.features import PointFeatures, interaction_matrix
-from hvs_sim.control.ibvs import PREDICT_DOFS, SIMILARITY_DOFS, ControlOutput, IBVSConfig, bound_twist, image_terms
+from hvs_sim.control.laws.ibvs import PREDICT_DOFS, SIMILARITY_DOFS, ControlOutput, IBVSConfig, bound_twist, image_terms
 from hvs_sim.control.pose import target_model, target_pose
 from hvs_sim.control.protocol import DOF_NAMES, ControlInput
 from hvs_sim.errors import InputError
