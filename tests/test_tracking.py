@@ -185,7 +185,8 @@ def test_with_scale_gives_the_same_tracker_at_another_working_scale(name):
     tracker = make_tracker(name, margin=6)
     other = tracker.with_scale(0.25)
     assert (tracker.working_scale, other.working_scale, other.name) == (0.5, 0.25, name)
-    assert other.config == make_tracker(name, margin=6, scale=0.25).config
+    built = make_tracker(name, margin=6, scale=0.25)
+    assert other.config == built.config and getattr(other, "hconfig", None) == getattr(built, "hconfig", None)
     assert other.warp == tracker.warp and other is not tracker
 
 

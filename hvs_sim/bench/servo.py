@@ -17,7 +17,6 @@ import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -29,9 +28,6 @@ from hvs_sim.provenance import code_provenance
 from hvs_sim.sensor import REALISTIC_PRESET
 from hvs_sim.servo.config import LoopConfig
 from hvs_sim.servo.parts import NEAR_GOAL_AUTO
-
-if TYPE_CHECKING:
-    from hvs_sim.servo.plan import Method
 from hvs_sim.validate import check_number
 
 SERVO_METHODS = ("ground_truth", "ground_truth/pbvs", "hybrid:homography", "hybrid:homography/pbvs", "hybrid")
@@ -137,19 +133,23 @@ class ServoBenchConfig:
         if self.goal_frames is not None and self.template_from == "start":
             raise ConfigError(f"goal_frames ({self.goal_frames}) averages frames into a goal image; with template_from "
                               "'start' no episode has one: leave one of them out")
-        if self.near_goal_scale is not None and not any(
-                method_plan(m, self.template_from, self.damping).takes_near_goal_scale for m in self.trackers):
-            raise ConfigError(f"--near-goal-scale ({self.near_goal_scale}) is the working scale of a built-in tracker on "
-                              "the near-goal template, and no method here has one (a goal template and a tracker with "
-                              "a working scale, e.g. hybrid:homography): leave it out")
         explicit = self.near_goal_inset_px not in (None, NEAR_GOAL_AUTO)  # auto applies where it can, by itself
         grown = [flag for flag, on in (("--near-goal-inset", explicit),
                                        ("a negative --roi-inset", (self.roi_inset_px or 0) < 0)) if on]
+        plans = self.method_plans() if self.near_goal_scale is not None or grown else {}  # asked once, if at all
+        if self.near_goal_scale is not None and not any(p.takes_near_goal_scale for p in plans.values()):
+            raise ConfigError(f"--near-goal-scale ({self.near_goal_scale}) is the working scale of a built-in tracker on "
+                              "the near-goal template, and no method here has one (a goal template and a tracker with "
+                              "a working scale, e.g. hybrid:homography): leave it out")
         if grown:  # a grown template needs a tracked goal template: refused before any episode, not in the middle
             for m in self.trackers:
-                if not method_plan(m, self.template_from, self.damping).goal_template:
+                if not plans[m].goal_template:
                     raise ConfigError(f"servo method {m!r} has no goal template to grow ({grown[0]} applies to a "
                                       "tracker on six DOF, e.g. hybrid:homography): run it without that option")
+
+    def method_plans(self) -> dict[str, MethodPlan]:
+        """Each method's plan (method_plan; its tracker and outside parts are built for it)."""
+        return {m: method_plan(m, self.template_from, self.damping) for m in self.trackers}
 
     @property
     def episode_seeds(self) -> list[int]:
@@ -232,18 +232,30 @@ def episode_offset(seed: int, standoff: float = 0.8, draw: int = 0, tilt: float 
     return tuple(float(v) + 0.0 for v in rng.uniform(*offset_range(standoff, tilt)))
 
 
-def method_plan(method: str, template_from: str | None, damping: float | None = None) -> Method:
-    """The method's parts and plan as its episodes' loop resolves them (servo/plan.py: build_method builds its tracker
-    and an outside law or policy, no scene): whether it tracks a goal template, whether near_goal_scale applies."""
+@dataclass(frozen=True)
+class MethodPlan:
+    """What the benchmark asks of a method's loop (servo/plan.py: Method) to set its episodes' options."""
+
+    goal_template: bool  # its episodes track a template cut from the goal image (goal_frames apply)
+    takes_near_goal_scale: bool  # a goal template and a tracker with a working scale (near_goal_scale applies)
+
+
+def method_plan(method: str, template_from: str | None, damping: float | None = None) -> MethodPlan:
+    """The method's plan as its episodes' loop resolves it (servo/plan.py: build_method builds its tracker and an
+    outside law or policy, no scene; the built parts are let go)."""
     from hvs_sim import plugins
     from hvs_sim.control.laws.ibvs import IBVSConfig
     from hvs_sim.servo.plan import build_method
 
     tracker, warp, controller, policy = parse_method(method)
     tracked = tracker not in (plugins.GROUND_TRUTH, plugins.NO_TRACKER)
-    config = LoopConfig(controller=controller, policy=policy, ibvs=IBVSConfig(damping=damping),
-                        template_from=template_from if tracked else None, near_goal_inset_px=None)
-    return build_method(tracker, config, {"warp": warp} if warp else None)
+    try:
+        config = LoopConfig(controller=controller, policy=policy, ibvs=IBVSConfig(damping=damping),
+                            template_from=template_from if tracked else None, near_goal_inset_px=None)
+        built = build_method(tracker, config, {"warp": warp} if warp else None)
+    except ConfigError as exc:
+        raise ConfigError(f"servo method {method!r}: {exc}") from None
+    return MethodPlan(built.goal_template, built.takes_near_goal_scale)
 
 
 def episode_scenario(scen_name: str, seed: int, tilt: float = TILT_MAX, **overrides):
@@ -391,7 +403,7 @@ def run_servo_bench(config: ServoBenchConfig, out: Path, progress: bool = True, 
     seeds = config.episode_seeds
     # workers resolve each method again: a name registered in this process travels as its module:callable
     run_as = {m: portable_method(m) if config.workers > 1 else m for m in config.trackers}
-    plans = {m: method_plan(m, config.template_from, config.damping) for m in config.trackers}  # asked once, here
+    plans = config.method_plans()
     jobs = [(s, t, seed, config.steps, config.extra_steps, seed == seeds[0], config.camera, config.people, config.damping,
              config.template_from, config.roi_inset_px, config.goal_frames, config.feature_filter,
              (config.width, config.height), np.radians(config.tilt_deg), run_as[t], config.arm,

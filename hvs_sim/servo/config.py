@@ -36,9 +36,9 @@ MAX_TEMPLATE_GROWTH_PX = 400  # the most a negative roi_inset_px may grow the go
 
 
 def option(flag: str, help: str, **argparse_kw) -> dict:
-    """A LoopConfig field's command-line option (cliargs.add_config_options adds it to `run` and `bench servo`, under
-    the field's name): its flag, its help and argparse's other keywords (type, metavar, choices). A new option of the
-    loop is then one edit, here."""
+    """A LoopConfig field's command-line option (cliargs.add_config_options adds it under the field's name): its flag,
+    its help and argparse's other keywords (type, metavar, choices). `run` takes every one, so a new loop option is one
+    edit, here; `bench servo` takes those ServoBenchConfig also carries (a field there, and its way to the episodes)."""
     return {"cli": {"flag": flag, "help": help, **argparse_kw}}
 
 
@@ -82,7 +82,7 @@ class LoopConfig:
         "--template-from", choices=TEMPLATE_VIEWS,
         help="where the tracker's template comes from: the run's first frame, or the goal image (the camera at the "
              "reference pose, people left out: teach-by-showing), the tracker then seeded at the target's corners in "
-             "the first frame (default: goal for a tracker on six DOF, i.e. --warp homography; else start)"))
+             "the first frame (default: goal for a tracker on six DOF, one with the homography warp; else start)"))
     # the template is cut this many pixels inside the target's outline, whose rendering (aliased edge, the
     # flag's side faces and its 4 mm relief above the board) changes from view to view: with the goal template,
     # tracked corners 0.3–0.5 px off near the goal without an inset, 0.02–0.05 px with 8 px. None:
@@ -95,7 +95,8 @@ class LoopConfig:
         help="cut the template this many pixels inside the target's outline, which renders differently from view to "
              f"view (default: {GOAL_ROI_INSET_PX} with a goal template, fewer for a target too small for it; 0 with a "
              "start template). Negative, with a goal template: grow it that many pixels into the target's "
-             "surroundings, which must lie in its plane (-90: the wall's neighbouring pictures, docs/results.md)"))
+             "surroundings, which must lie in its plane (-90: the wall's neighbouring pictures, the 6-DOF loop's most "
+             "precise setting, docs/results.md)"))
     # a second, grown goal template (a negative inset, as roi_inset_px) the loop switches to once the tracked corners
     # are within near_goal_px of s* and the grown box is in view: the small template brings the camera near from
     # afar (the grown box may lie out of a tilted start view, where its first alignment fails), the grown one pins
@@ -128,8 +129,8 @@ class LoopConfig:
     goal_frames: int | None = field(default=None, metadata=option(
         "--goal-frames", type=int, metavar="N",
         help="frames of the still goal view averaged into the goal image, as a user teaching the goal averages a few "
-             f"grabs: the camera's noise falls ~√N (default {GOAL_FRAMES} with a goal template; refused with a start "
-             "template)"))
+             f"grabs: the camera's noise falls ~√N (default {GOAL_FRAMES} with a goal template; a start template has "
+             "no goal image)"))
     # α of the feature filter (control/feature_filter.py): the tracked corners blended with where the camera's
     # own motion (forward kinematics) carries the last estimate; 0 = off. None: FEATURE_FILTER_ALPHA for tracked
     # corners on six DOF, off otherwise (exact features need none; the 4-DOF path is the paper's)

@@ -152,8 +152,8 @@ def _resolve_near_goal(name: str, config: LoopConfig, tracker: Tracker | plugins
 @dataclass(frozen=True)
 class Method:
     """A servo method's parts as a loop drives them, and its plan: what a ServoLoop builds before its scene, and what
-    a benchmark or a sweep asks of a method (`goal_template`, `takes_near_goal_scale`) instead of re-deriving the
-    loop's rules from its name."""
+    the servo benchmark asks of a method (`goal_template`, `takes_near_goal_scale`) instead of re-deriving the loop's
+    rules from its name."""
 
     tracker: Tracker | plugins.ExternalTracker | None  # None: the oracle, or no tracker (a law on the images, a policy)
     law: plugins.ExternalController | None  # the outside law, built (None: a built-in)

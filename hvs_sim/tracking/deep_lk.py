@@ -30,7 +30,7 @@ class DeepLKTracker(Tracker):
         return self.config.scale
 
     def with_scale(self, scale: float) -> DeepLKTracker:
-        tracker = DeepLKTracker(dataclasses.replace(self.config, scale=scale))
+        tracker = type(self)(dataclasses.replace(self.config, scale=scale))
         tracker.name = self.name
         return tracker
 

@@ -140,7 +140,7 @@ class HybridTracker(Tracker):
         return self.hconfig.deep.scale
 
     def with_scale(self, scale: float) -> HybridTracker:
-        tracker = HybridTracker(dataclasses.replace(self.hconfig, deep=dataclasses.replace(self.hconfig.deep, scale=scale)))
+        tracker = type(self)(dataclasses.replace(self.hconfig, deep=dataclasses.replace(self.hconfig.deep, scale=scale)))
         tracker.name = self.name
         return tracker
 
