@@ -419,16 +419,14 @@ class Aligner:
 
         return huber(r1[both]) < RESIDUAL_GAIN * huber(r0[both])
 
-    def align(self, work: np.ndarray, A_work: np.ndarray, estimate: np.ndarray | None = None,
-              frames: int = 1) -> Alignment:
-        """Feature LK (+ residual) from A_work; `A_work` of the result is None when the alignment is
-        rejected (a jump of θ or s, too few points in view, a scale or shift no camera makes). θ and s may
-        continue either the seed's or `estimate`'s (the current estimate, work px): a seed from the template
-        as taken (θ = 0, s = 1) otherwise refuses a target seen rolled by more than max_rotation_step.
-        `frames`: how many frames ago `estimate`'s θ and s were last measured; the target may have turned and
-        scaled by a step in each of them. With one step only, a camera that rolled while the tracker predicted left
-        the visible target refused on every later frame (a servo's first, fastest steps on dev `pause` seed 279:
-        8° from the estimate after 5 predicted frames, and the arm held still there by the safety rule)."""
+    def align(self, work: np.ndarray, A_work: np.ndarray, estimate: np.ndarray | None = None, frames: int = 1,
+              aligned: tuple[np.ndarray, int] | None = None) -> Alignment:
+        """Feature LK (+ residual) from A_work; `A_work` of the result is None when the alignment is rejected (a jump
+        of θ or s, too few points in view, a scale or shift no camera makes). θ and s may continue the seed's, or
+        `estimate`'s (the current estimate, work px; a seed from the template as taken, θ = 0 and s = 1, would
+        refuse a target seen rolled), or `aligned`'s (the last alignment, work px, and the frames since). `frames`:
+        how many frames ago `estimate`'s θ and s were measured; the target may turn and scale by a step in each (dev
+        `pause` seed 279: 8° from an estimate the predictor had moved for 5 frames, refused on every later frame)."""
         out = self.lk(work, A_work)
         if out is None:
             return Alignment(None, None)
@@ -453,7 +451,8 @@ class Aligner:
             return Alignment(None, out, used)
         scale = matrix_to_pose(A_new, self.c_work)[3]
         moved = np.linalg.norm(apply(A_new, self.c_work[None]) - apply(A_work, self.c_work[None]))
-        jump = self._jumps(A_work, A_new) and (estimate is None or self._jumps(estimate, A_new, frames))
+        jump = (self._jumps(A_work, A_new) and (estimate is None or self._jumps(estimate, A_new, frames))
+                and (aligned is None or self._jumps(aligned[0], A_new, aligned[1])))
         if not 0.5 < scale < 2.0 or moved > self.rho or res.valid < MIN_VALID or jump:
             return Alignment(None, out, used)
         return Alignment(A_new, out, used)

@@ -222,6 +222,9 @@ class HybridState:
     predict_run: int = 0  # consecutive frames with neither an alignment nor a measurement
     drift_run: int = 0  # frames the predictor alone has moved the estimate since it was last anchored
     since_aligned: int = 0  # frames since the target was last aligned
+    # the estimate at the last alignment: its θ and s were measured on the target itself, unlike a surroundings'
+    # measurement since, which an occluder covering them can skew (Aligner.align's `aligned`)
+    aligned_A: np.ndarray | None = None
     # a far re-acquisition awaiting confirmation: its offset from the estimate, and on how many
     # consecutive frames it was seen
     jump: np.ndarray | None = None
@@ -252,7 +255,7 @@ class HybridState:
         return self.jump_frames
 
     def aligned(self, work: np.ndarray, A: np.ndarray, sources: list[MotionSource]) -> None:
-        self.A = A
+        self.A = self.aligned_A = A
         self.predict_run = self.drift_run = self.since_aligned = 0
         self.jump, self.jump_frames = None, 0
         self.after_cut = self.is_lost = False
