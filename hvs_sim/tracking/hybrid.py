@@ -343,10 +343,13 @@ class HybridTracker(Tracker):
         confident = m.score > 0 and (m.score >= self.config.match_threshold or (self.hconfig.continuity and is_current))
         if confident and (occ < gate or self.hconfig.gate_after_alignment):
             # θ and s may continue the estimate's, last measured (aligned, or carried by the surroundings' motion)
-            # drift_run + 1 frames ago (the predictor's guesses carry neither), or the last alignment's, since_aligned
-            # + 1 frames ago: a measurement of the surroundings skewed by an occluder over them must not leave the
-            # target refused once it shows again (a fresh `pause`: the estimate scaled 12% with the arm held still)
-            last = None if st.aligned_A is None else (al.to_work(st.aligned_A), st.since_aligned + 1)
+            # drift_run + 1 frames ago (the predictor's guesses carry neither); in a re-acquisition, which _verified
+            # checks by appearance, uniqueness and persistence, also the last alignment's, since_aligned + 1 frames
+            # ago: a measurement of the surroundings skewed by an occluder over them must not leave the target refused
+            # once it shows again (a fresh `pause`: the estimate scaled 12% with the arm held still). Not sooner: at
+            # dev `pause` seed 365 a person over the target was aligned 10 frames into the gap
+            reacquiring = st.is_lost or st.after_cut or st.since_aligned >= REACQUIRE_AFTER
+            last = (al.to_work(st.aligned_A), st.since_aligned + 1) if reacquiring and st.aligned_A is not None else None
             A_new = al.align(work, A_seed, al.to_work(st.A), frames=st.drift_run + 1, aligned=last).A_work
             occ_aligned = occ
             if A_new is not None and occ >= gate:  # gated again where the target was aligned (gate_after_alignment)
