@@ -246,3 +246,9 @@ def test_an_alignment_may_continue_the_estimates_roll_when_its_seed_is_the_templ
     assert np.abs(apply(al.to_full(A), corners) - apply(truth, corners)).max() < 0.3
     far = al.to_work(pose_to_matrix((0.0, 0.0, np.radians(-10.0), 1.0), c))  # neither the seed's nor this one
     assert al.align(work, seed, far).A_work is None
+    # in a re-acquisition the last alignment's θ and s bound it too, a step per frame since: an estimate a skewed
+    # surroundings measurement turned 17° away no longer refuses the target seen rolled 7° (HybridTracker._update)
+    last = al.to_work(np.eye(3))  # aligned at θ = 0, 7° from the target now
+    assert al.align(work, seed, far, aligned=(last, 1)).A_work is None  # one frame: 7° is more than a step
+    A = al.align(work, seed, far, aligned=(last, 2)).A_work
+    assert A is not None and np.abs(apply(al.to_full(A), corners) - apply(truth, corners)).max() < 0.3
