@@ -194,7 +194,7 @@ class HybridTracker(Tracker):
         if not c.verify_reacquisition:
             return True
         unique = self._unique(A, m, work)
-        if st.is_lost or st.after_cut or st.since_aligned >= REACQUIRE_AFTER:
+        if self._reacquiring():
             return self._reacquisition_verified(A, m, work, unique)
         if self.target_motion != "static":
             expected = self.predictor_source.predictor.peek()
@@ -213,6 +213,12 @@ class HybridTracker(Tracker):
         if c.surroundings_veto_frames and held and seen < c.surroundings_veto_frames:
             return False  # the surroundings, measured since the alignment, put the target elsewhere
         return seen >= c.reacquire_frames
+
+    def _reacquiring(self) -> bool:
+        """Whether an alignment now is a re-acquisition (after `lost`, a cut or REACQUIRE_AFTER unaligned frames),
+        which _reacquisition_verified checks."""
+        st = self.state
+        return st.is_lost or st.after_cut or st.since_aligned >= REACQUIRE_AFTER
 
     def _unique(self, A: np.ndarray, m, work: np.ndarray | None) -> bool:
         """No look-alike elsewhere: the match's peak stands out from the rest of the frame (reacquire_margin). The
@@ -348,8 +354,8 @@ class HybridTracker(Tracker):
             # ago: a measurement of the surroundings skewed by an occluder over them must not leave the target refused
             # once it shows again (a fresh `pause`: the estimate scaled 12% with the arm held still). Not sooner: at
             # dev `pause` seed 365 a person over the target was aligned 10 frames into the gap
-            reacquiring = st.is_lost or st.after_cut or st.since_aligned >= REACQUIRE_AFTER
-            last = (al.to_work(st.aligned_A), st.since_aligned + 1) if reacquiring and st.aligned_A is not None else None
+            reacquiring = self._reacquiring() and st.aligned_A is not None
+            last = (al.to_work(st.aligned_A), st.since_aligned + 1) if reacquiring else None
             A_new = al.align(work, A_seed, al.to_work(st.A), frames=st.drift_run + 1, aligned=last).A_work
             occ_aligned = occ
             if A_new is not None and occ >= gate:  # gated again where the target was aligned (gate_after_alignment)
