@@ -207,3 +207,23 @@ def test_scenario_is_frozen_and_replaceable():
     with pytest.raises(dataclasses.FrozenInstanceError):
         sc.seed = 3
     assert dataclasses.replace(sc, seed=3).seed == 3
+
+
+def test_an_arm_start_that_folds_the_jaco_onto_itself_is_refused():
+    """A start configuration in collision is no start: the physics pushes the links apart at the first step. Fresh
+    servo episode 1917673302's first draw had the Jaco's ring 4 5 mm into its link 2; the elbow was kicked at 1.4 rad/s
+    and the camera carried 10 cm before the loop commanded anything, the target out of view."""
+    from hvs_sim.scene.ik import arm_collisions
+
+    small = CameraConfig(width=160, height=120)
+    scene = Scene(make_scenario("clear", mount="arm", camera=small))
+    folded = np.array([-1.612, 3.444, 0.344, -2.57, 2.363, -1.821])  # that draw's IK answer
+    assert any("ring_4" in hit and "link_2" in hit for hit in arm_collisions(scene.physics, scene.rig, folded))
+    assert arm_collisions(scene.physics, scene.rig, scene.joint_positions) == []
+    offset = (0.0936, 0.0150, -0.2832, 0.9081, 0.2304, -0.1921)  # its start offset (m, rad)
+    with pytest.raises(ConfigError, match="without a collision"):
+        Scene(make_scenario("clear", mount="arm", camera=small, start_offset=offset))
+    held = Scene(make_scenario("clear", mount="arm", camera=small, start_offset=(0.05, 0.02, -0.1, 0.3, 0.1, 0.1)))
+    q0 = held.joint_positions
+    held.advance(np.zeros(len(q0)))  # a start the physics does not move: the arm holds at a zero command
+    assert np.abs(held.joint_positions - q0).max() < 1e-3

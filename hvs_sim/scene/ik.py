@@ -18,6 +18,10 @@ from hvs_sim.geometry import mat_to_quat, opencv_to_mujoco
 IK_PROGRESS_THRESH = 1e4  # dm_control stops an IK whose step is this many times its error drop; near the
 # wrist singularity progress is slow but real, and the default (20) gave up on reachable poses
 IK_LIMIT_STEPS, IK_LIMIT_DAMPING, IK_LIMIT_INSET = 400, 1e-3, 1e-3  # a redundant arm's IK brought into its limits
+# deeper than this, an overlap of the arm's geoms (with itself or anything else) is a collision: the physics pushes
+# the links apart at its first step (a Jaco folded onto its own link 2 kicked its elbow at 1.4 rad/s, carrying the
+# camera 10 cm before the loop had commanded anything), so a start configuration must not have one
+MAX_START_PENETRATION_M = 1e-3
 
 
 def solve_arm_ik(root, physics, rig, position, R_cv, q0) -> np.ndarray:
@@ -107,3 +111,22 @@ def _into_limits(scratch, rig, q, position, quat, lo, hi, steps: int = IK_LIMIT_
         raise ConfigError(f"camera pose {np.round(position, 3).tolist()} needs an arm configuration outside the "
                           "joint limits")
     return q
+
+
+def arm_collisions(physics, rig, q: np.ndarray) -> list[str]:
+    """The arm's collisions at joint angles q (on a copy of the physics): "geom | geom (depth mm)" for each contact
+    of an arm geom deeper than MAX_START_PENETRATION_M. dm_control's IK places the camera and knows nothing of them."""
+    scratch = physics.copy(share_model=True)
+    scratch.bind(rig.joints).qpos = q
+    m, d = scratch.model.ptr, scratch.data.ptr
+    mujoco.mj_forward(m, d)
+    arm = np.zeros(m.nbody, bool)
+    arm[m.jnt_bodyid[scratch.bind(rig.joints).element_id]] = True
+    for b in range(1, m.nbody):  # bodies come after their parents: the subtrees of the joints' bodies
+        arm[b] |= arm[m.body_parentid[b]]
+    out = []
+    for c in d.contact[:d.ncon]:
+        if c.dist < -MAX_START_PENETRATION_M and (arm[m.geom_bodyid[c.geom1]] or arm[m.geom_bodyid[c.geom2]]):
+            names = (mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, int(g)) or f"geom {g}" for g in (c.geom1, c.geom2))
+            out.append(f"{' | '.join(names)} ({-1e3 * c.dist:.1f} mm)")
+    return out

@@ -13,7 +13,7 @@ from dm_control import mjcf
 from hvs_sim.errors import ConfigError, InputError
 from hvs_sim.geometry import mat_to_quat, mujoco_to_opencv, offset_pose, opencv_to_mujoco, rotation_vector
 from hvs_sim.scene.arms import check_frame_rate, make_arm_rig
-from hvs_sim.scene.ik import range_middle, solve_arm_ik, unwound
+from hvs_sim.scene.ik import arm_collisions, range_middle, solve_arm_ik, unwound
 from hvs_sim.scene.parts import FlagWall, HandheldRig, Person
 from hvs_sim.scene.scenarios import Scenario, ShakeModel, occluder_lateral
 from hvs_sim.scene.wall import wall_pictures
@@ -373,8 +373,8 @@ class Scene:
     def _start_configuration(self) -> np.ndarray:
         """Joint angles of the start pose. Continuation first: the IK walks from the reference pose to
         the start pose in small steps, so the solution stays on the home branch. Where that branch
-        runs into a joint limit or a singularity, seeded restarts spread over the joint ranges are
-        tried; the one nearest the home configuration is kept."""
+        runs into a joint limit, a singularity or a collision of the arm (ik.arm_collisions), seeded restarts
+        spread over the joint ranges are tried; the collision-free one nearest the home configuration is kept."""
         home = _home_configuration(self)
         ref = self.reference_pose()
         target = offset_pose(*ref, self.scenario.start_offset)
@@ -382,18 +382,23 @@ class Scene:
         try:
             for alpha in np.linspace(0.0, 1.0, IK_CONTINUATION_STEPS + 1)[1:]:
                 q = self.solve_ik(*offset_pose(*ref, alpha * np.asarray(self.scenario.start_offset, float)), q0=q)
-            return q
-        except ConfigError as first:
-            found = []
-            for q0 in _restart_seeds(self, IK_RESTARTS, IK_RESTART_SEED):
-                try:
-                    found.append(self.solve_ik(*target, q0=q0))
-                except ConfigError:
-                    continue
-            if not found:
-                raise ConfigError(f"{first}; the start offset {self.scenario.start_offset_text} cannot be reached by "
-                                  "the arm: give a smaller offset") from None
-            return min(_off_limits(self, found), key=lambda qs: float(np.abs(qs - home).sum()))
+            hits = arm_collisions(self.physics, self.rig, q)
+            if not hits:
+                return q
+            first = ConfigError(f"the home branch's configuration collides ({'; '.join(hits)})")
+        except ConfigError as exc:
+            first = exc
+        found = []
+        for q0 in _restart_seeds(self, IK_RESTARTS, IK_RESTART_SEED):
+            try:
+                found.append(self.solve_ik(*target, q0=q0))
+            except ConfigError:
+                continue
+        found = [qs for qs in _off_limits(self, found) if not arm_collisions(self.physics, self.rig, qs)]
+        if not found:
+            raise ConfigError(f"{first}; the start offset {self.scenario.start_offset_text} cannot be reached by "
+                              "the arm without a collision: give a smaller offset")
+        return min(found, key=lambda qs: float(np.abs(qs - home).sum()))
 
     def advance(self, joint_velocity: np.ndarray | None = None) -> None:
         """Move one frame (1/fps s): joint velocity commands for the arm, kinematics for the rest."""
