@@ -218,3 +218,18 @@ def test_estimate_is_re_anchored_when_the_view_returns_after_a_blackout(flag_fra
         errors[reanchor] = max(hidden_target_error(tr, img, path[k]) for k in range(26, 36))  # the wall again
     assert errors[True] <= 0.5, errors
     assert errors[False] > 2.0, errors  # the chain alone carries the blackout's drift
+
+
+def test_hidden_target_follows_a_view_sweeping_faster_than_the_gate(flag_frame):
+    """A hand-held view sweeping ~6 px a frame (over `background_gate_px`) while the target is covered: the
+    surroundings' measurements continue the measured track's velocity and are taken, so the estimate keeps up
+    instead of falling behind and the chain being restarted from it."""
+    img = flag_frame
+    n = 31
+    rng = np.random.default_rng(4)
+    path = np.cumsum(np.tile([4.5, 4.2], (n, 1)) + rng.normal(0, 0.3, (n, 2)), axis=0)
+    path -= path[0]
+    tr = tracking_on(img, path)
+    assert tr.hconfig.background_gate_px < np.linalg.norm(path[-1] - path[-2])
+    errors = [hidden_target_error(tr, img, path[k]) for k in range(11, n)]
+    assert max(errors) <= 1.0, np.round(errors, 2)

@@ -95,6 +95,10 @@ class HybridConfig:
     # most a background-measured position may differ from the last estimate (px, per frame since
     # the last measurement); 8 px let a wrong 17 px jump through on a validation sequence (README)
     background_gate_px: float = 4.0
+    # ... or from where the last measured positions' velocity continues the track (SceneMotionSource.propose): a
+    # hand-held view sweeping 5-7 px a frame was otherwise refused on every frame and the estimate fell behind (the
+    # photos' dev split, `camo`: 100-225 px off under the look-alike person); False: from the estimate alone
+    background_gate_continues: bool = True
     background_config: BackgroundConfig = field(default_factory=BackgroundConfig)
     reanchor: bool = True  # after predictor-only frames, measure against aligned keyframes (KeyframeAnchor)
     # verified re-acquisition (a change to the paper): an alignment further than `reacquire_px` (plus
@@ -152,7 +156,7 @@ class HybridConfig:
 
     def __post_init__(self):
         check_flags(self, ("continuity", "colour_occlusion", "gate_after_alignment", "background", "reanchor",
-                           "verify_reacquisition"))
+                           "verify_reacquisition", "background_gate_continues"))
         if not 0 < self.occlusion_gate <= 1:
             raise ConfigError(f"occlusion_gate must be in (0, 1], got {self.occlusion_gate}")
         if self.predictor not in PREDICTORS:

@@ -65,6 +65,9 @@ TRACKERS: dict[str, TrackerSpec] = {
                                                                              "cell_corners": 0}},
                                            "the surroundings' motion as a similarity chain of the strongest corners, "
                                            "with no occluder prior (before the homography refit)", "#5254a3"),
+    "hybrid_estimate_gate": TrackerSpec("hybrid", {"background_gate_continues": False},
+                                        "a measurement of the surroundings is judged from the estimate alone, not "
+                                        "also from where the measured track's velocity continues", "#e7ba52"),
     "hybrid_no_surroundings_veto": TrackerSpec("hybrid", {"surroundings_veto_frames": 0},
                                                "a far re-acquisition the surroundings contradict is not held back",
                                                "#b5cf6b"),
