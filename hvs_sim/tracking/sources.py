@@ -64,11 +64,11 @@ def _translation(A: np.ndarray, center0: np.ndarray) -> np.ndarray:
     return matrix_to_pose(A, center0)[:2]
 
 
-ANCHOR_DRIFT_PX = 0.5
+ANCHOR_DRIFT_PX = 0.5  # px a frame the scene's chain may have drifted since the last alignment (KeyframeAnchorSource)
 # SceneMotionSource: the measured track's velocity counts from two positions at most this many frames apart, the later
-# one at most this many frames ago (a hand-held view's speed changes within a few frames)
+# one at most this many frames ago (a hand-held view's speed changes within a few frames) ...
 MEASURED_VELOCITY_GAP = 3
-CONTINUE_MIN_SPEED = 0.5  # ... and counts from half the gate a frame (of background_gate_px)  # px a frame the scene's chain may have drifted since the last alignment (KeyframeAnchorSource)
+CONTINUE_MIN_SPEED = 0.5  # ... and from half the gate a frame (a fraction of background_gate_px)
 
 
 class KeyframeAnchorSource:
