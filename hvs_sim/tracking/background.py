@@ -12,6 +12,12 @@ be a narrow strip, from which a homography extrapolates badly to the hidden targ
 inliers spread over the view, the hop is refitted on them as a homography (`homography`): a picture
 on a wall moves as a plane, and a similarity chained through a hand-held camera's tilt drifted
 2–4 px in 3 s where the homography of the same wall points stayed within 0.5 px (docs/tuning.md).
+Under a hand-held camera's tilt a similarity within RANSAC's 0.3 px often holds only part of the wall (one strip
+beside a coat), so the hop also looks for the plane that contains the similarity's consensus among all followed
+points (`grow_plane`), and keeps it where a robust model-selection criterion (Torr's GRIC) says the plane explains
+the points better than the similarity by more than its four extra parameters cost: in a scene of one plane it takes in
+the rest of the wall; in a scene of several depths (a room, a floor, people) a homography that merely bends to a few
+more points is not chosen.
 
 The occluder is what stands in front of the target (`occluder_prior`): of two competing
 consensuses, one with corners on the hidden target's box, where the other has almost none, is the
@@ -65,6 +71,9 @@ class BackgroundConfig:
     max_fb_px: float = 0.5  # forward–backward LK disagreement above which a point is dropped (chain and anchor)
     competing: bool = True  # a second consensus competes with the first; the one moving as the scene did wins
     homography: bool = True  # a hop whose inliers spread over the view is refitted on them as a homography
+    # ... and the similarity's consensus is grown into the plane that contains it where GRIC prefers that plane
+    # (module docstring); False: the refit on the similarity's own inliers only
+    grow_plane: bool = True
     occluder_prior: bool = True  # a consensus on the hidden target is the occluder's (module docstring)
     # at least this many corners in each of CELL_GRID × CELL_GRID parts of the view (at that part's own contrast);
     # 0: the strongest `max_points` of the whole view only, as before
@@ -86,7 +95,7 @@ class BackgroundConfig:
             raise ConfigError(f"need ransac_px > 0, max_fb_px > 0 and anchor_points >= 8, got "
                               f"{self.ransac_px}, {self.max_fb_px}, {self.anchor_points}")
         check_number("background cell_corners", self.cell_corners, 0, integer=True)
-        check_flags(self, ("competing", "homography", "occluder_prior", "anchor_plane"))
+        check_flags(self, ("competing", "homography", "grow_plane", "occluder_prior", "anchor_plane"))
         if self.max_points < 8 or self.min_inliers < 4:
             raise ConfigError(f"background motion needs max_points >= 8 and min_inliers >= 4, "
                               f"got {self.max_points}, {self.min_inliers}")
@@ -123,6 +132,17 @@ OCCLUDER_MISS_PX = 2.0  # ... and moving no more than this further from the scen
 HOMOGRAPHY_MIN_INLIERS = 20
 HOMOGRAPHY_SPREAD = 0.6
 HOMOGRAPHY_AGREE_PX = 1.0
+# the plane grown from a hop's similarity consensus (BackgroundConfig.grow_plane): RANSAC homographies over all followed
+# points, up to PLANE_MODELS of them (each among the points the ones before did not take: a coat's own consensus can be
+# the largest), the first that holds PLANE_KEEP of the similarity's inliers being the plane that contains them
+PLANE_MODELS = 3
+PLANE_KEEP = 0.8
+# GRIC (Torr, "Geometric motion segmentation and model selection", 1998) for a 2-D point transfer: residuals in units of
+# the noise σ (half the RANSAC threshold), each capped at λ3·(r − d) = 2·(4 − 2) = 4 (an outlier's cost); a model pays
+# log(r·n) per parameter (similarity 4, homography 8). The λ1·d·n term is the same for both and cancels
+GRIC_CAP = 4.0
+GRIC_R = 4
+SIMILARITY_DOF, HOMOGRAPHY_DOF = 4, 8
 # KeyframeAnchor's plane (BackgroundConfig.anchor_plane): a keyframe's homography counts on at least this many inliers
 # (within ANCHOR_PLANE_PX), spread over at least this share of the view's width and height. A similarity pooled over
 # keyframes whose poses were each the target's alone found no consensus at all (0 inliers of ~120) once a hand-held
@@ -247,6 +267,43 @@ def _plane_refit(S: np.ndarray, src: np.ndarray, dst: np.ndarray, shape: tuple[i
     return H if np.linalg.norm(apply(H, centre) - apply(S, centre)) <= HOMOGRAPHY_AGREE_PX else S
 
 
+def _gric(M: np.ndarray, src: np.ndarray, dst: np.ndarray, sigma: float, dof: int) -> float:
+    """GRIC of the 2-D transfer M over the correspondences src → dst (lower is better; GRIC_* above)."""
+    e2 = np.sum((apply(M, src) - dst) ** 2, axis=1) / sigma ** 2
+    return float(np.minimum(e2, GRIC_CAP).sum() + dof * np.log(GRIC_R * len(src)))
+
+
+def _grown_plane(S: np.ndarray, inl: np.ndarray, src: np.ndarray, dst: np.ndarray, shape: tuple[int, int],
+                 ransac_px: float) -> np.ndarray | None:
+    """The homography of the plane that contains the similarity consensus (S, its inliers `inl`) among all the
+    followed points src → dst, where its inliers spread over the view (HOMOGRAPHY_*) and GRIC prefers it to S; else
+    None (PLANE_*, GRIC_*)."""
+    h, w = shape
+    left = np.ones(len(src), bool)
+    for _ in range(PLANE_MODELS):
+        idx = np.flatnonzero(left)
+        if len(idx) < HOMOGRAPHY_MIN_INLIERS:
+            return None
+        H, mask = cv2.findHomography(src[idx], dst[idx], cv2.RANSAC, ransac_px, maxIters=RANSAC_MAX_ITERS)
+        if H is None or not np.all(np.isfinite(H)) or abs(H[2, 2]) < 1e-12:
+            return None
+        plane = np.zeros(len(src), bool)
+        plane[idx[mask[:, 0].astype(bool)]] = True
+        if (plane & inl).sum() >= PLANE_KEEP * inl.sum():
+            break
+        left &= ~plane
+    else:
+        return None
+    if plane.sum() < HOMOGRAPHY_MIN_INLIERS or np.ptp(src[plane, 0]) < HOMOGRAPHY_SPREAD * w or \
+            np.ptp(src[plane, 1]) < HOMOGRAPHY_SPREAD * h:
+        return None
+    H = H / H[2, 2]
+    sigma = ransac_px / 2
+    if _gric(H, src, dst, sigma, HOMOGRAPHY_DOF) >= _gric(S, src, dst, sigma, SIMILARITY_DOF):
+        return None
+    return H
+
+
 def _corners(img: np.ndarray, c: BackgroundConfig, limit: int) -> np.ndarray | None:
     """Corners (N×2 float32) to follow: the `limit` strongest, and at least `cell_corners` in each part of the view
     that has any (at that part's own contrast)."""
@@ -351,7 +408,10 @@ class BackgroundMotion:
                             self.covered and c.occluder_prior)
         if S is None:
             return None
-        return (_plane_refit(S, p[inl], q[inl], src.shape[:2]) if c.homography else S), S
+        if not c.homography:
+            return S, S
+        grown = _grown_plane(S, inl, p, q, src.shape[:2], c.ransac_px) if c.grow_plane else None
+        return (grown if grown is not None else _plane_refit(S, p[inl], q[inl], src.shape[:2])), S
 
     def update(self, grey: np.ndarray, hidden: np.ndarray | None = None) -> np.ndarray | None:
         """Keyframe → `grey` (a similarity, or a homography where hops were refitted), or None this frame (the chain

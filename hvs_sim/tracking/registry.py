@@ -65,6 +65,9 @@ TRACKERS: dict[str, TrackerSpec] = {
                                                                              "cell_corners": 0}},
                                            "the surroundings' motion as a similarity chain of the strongest corners, "
                                            "with no occluder prior (before the homography refit)", "#5254a3"),
+    "hybrid_plane_refit": TrackerSpec("hybrid", {"background_config": {"grow_plane": False}},
+                                      "each hop refitted as a homography on its similarity consensus's own inliers "
+                                      "only, not grown into the plane that contains them", "#8ca252"),
     "hybrid_estimate_gate": TrackerSpec("hybrid", {"background_gate_continues": False},
                                         "a measurement of the surroundings is judged from the estimate alone, not "
                                         "also from where the measured track's velocity continues", "#e7ba52"),
