@@ -77,6 +77,30 @@ def test_background_motion_measures_a_narrow_strip_of_scene_beside_an_occluder(x
     assert M is not None and np.abs(apply(M, pts) - (pts + d)).max() < 0.15
 
 
+def test_a_refused_hop_is_not_chained_and_the_short_hop_is_tried(flag_frame):
+    # the caller's gate refuses the 5-frame hop's measurement (a coat sweeping in can give its only consensus): it is
+    # not chained, the 1-frame hop is measured instead; a frame whose every measurement is refused leaves the chain
+    grey = cv2.resize(cv2.cvtColor(flag_frame, cv2.COLOR_RGB2GRAY), None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
+    d = np.array([0.6, -0.4])
+    bg = BackgroundMotion()
+    bg.start(grey)
+    for k in range(1, 5):
+        assert bg.update(shift(grey, *(k * d))) is not None
+    asked = []
+
+    def second_only(M):
+        asked.append(M)
+        return len(asked) == 2
+
+    M = bg.update(shift(grey, *(5 * d)), accept=second_only)
+    assert len(asked) == 2 and M is asked[1]
+    assert bg.chain[-1][0] == 5 and bg.chain[-1][2] is M
+    assert np.abs(apply(M, np.array([[160.0, 120.0]])) - (np.array([160.0, 120.0]) + 5 * d)).max() < 0.1
+    before = list(bg.chain)
+    assert bg.update(shift(grey, *(6 * d)), accept=lambda M: False) is None
+    assert [c[0] for c in bg.chain] == [c[0] for c in before]
+
+
 def test_keyframes_are_spaced_in_time_and_the_newest_is_the_latest():
     anchor = KeyframeAnchor(BackgroundConfig(keyframes=5, spacing=10))
     img = np.zeros((8, 8), np.uint8)

@@ -34,6 +34,7 @@ predictor's estimate, and KeyframeAnchor (below) takes that error out once the w
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import cv2
@@ -413,23 +414,30 @@ class BackgroundMotion:
         grown = _grown_plane(S, inl, p, q, src.shape[:2], c.ransac_px) if c.grow_plane else None
         return (grown if grown is not None else _plane_refit(S, p[inl], q[inl], src.shape[:2])), S
 
-    def update(self, grey: np.ndarray, hidden: np.ndarray | None = None) -> np.ndarray | None:
+    def update(self, grey: np.ndarray, hidden: np.ndarray | None = None,
+               accept: Callable[[np.ndarray], bool] | None = None) -> np.ndarray | None:
         """Keyframe → `grey` (a similarity, or a homography where hops were refitted), or None this frame (the chain
-        then waits at the last good frame). `hidden`: the hidden target's box (4×2, work px), or None.
+        then waits at the last good frame). `hidden`: the hidden target's box (4×2, work px), or None. `accept`: the
+        caller's judgement of a measurement (keyframe → `grey`); one it refuses is not chained, and the next hop is
+        tried.
 
         Measured from the frame `hop` steps back in the chain when it is there, else from the
         last one: a person standing almost still moves a fraction of a pixel per frame, within
-        RANSAC's tolerance, but several pixels over a few frames, where RANSAC rejects them."""
+        RANSAC's tolerance, but several pixels over a few frames, where RANSAC rejects them. Where the long hop's
+        consensus is refused (a coat sweeping in gives the only one of the 5-frame hop), the short one is tried."""
         self.frame += 1
         sources = list(self.chain)[:1] if len(self.chain) == self.config.hop else []
         sources += list(self.chain)[-1:]
         for k, src, M_src in sources:
             measured = self.step(src, grey, self.frame - k, hidden)
-            if measured is not None:
-                M = measured[0] @ M_src
-                self.chain.append((self.frame, grey, M))
-                self.velocity = _per_frame(measured[1], self.frame - k)
-                return M
+            if measured is None:
+                continue
+            M = measured[0] @ M_src
+            if accept is not None and not accept(M):
+                continue
+            self.chain.append((self.frame, grey, M))
+            self.velocity = _per_frame(measured[1], self.frame - k)
+            return M
         return None
 
     def peek(self, key: np.ndarray, grey: np.ndarray, hidden: np.ndarray | None = None) -> np.ndarray | None:

@@ -159,40 +159,44 @@ class SceneMotionSource:
             return None
         return t1 + v * (state.frame_index - f1)
 
-    def measure(self, work, state: HybridState, peek: bool = False) -> np.ndarray | None:
-        """Where the surroundings' motion since the chain's start puts the target (full-res warp), ungated; None when
-        the surroundings cannot be measured. The target's box at the current estimate is where the surroundings are
-        not (background.BackgroundConfig.occluder_prior). `peek`: measured in one hop from the chain's last good
+    def measure(self, work, state: HybridState, peek: bool = False, gated: bool = False) -> np.ndarray | None:
+        """Where the surroundings' motion since the chain's start puts the target (full-res warp); None when the
+        surroundings cannot be measured, or (`gated`) when every hop's measurement jumps (`_passes`), which is then
+        not chained. The target's box at the current estimate is where the surroundings are not
+        (background.BackgroundConfig.occluder_prior). `peek`: measured in one hop from the chain's last good
         frame, the chain left as it was (BackgroundMotion.peek), for a check on a frame that may still be aligned
         (HybridTracker._verified)."""
         key_work, A_key = self.key
         hidden = apply(self.aligner.S @ state.A, state.corners0)
         self.motion.covered = state.hidden_share >= COVERED_OP
+        al = self.aligner
+
+        def full(M: np.ndarray) -> np.ndarray:
+            return al.S_inv @ M @ al.S @ A_key  # (keyframe → this frame, full-res) ∘ keyframe warp
+
         if peek:
             M = self.motion.peek(key_work, work, hidden)
         else:
             if not self.motion.active:
                 self.motion.start(key_work)
-            M = self.motion.update(work, hidden)
-        if M is None:
-            return None
-        al = self.aligner
-        return al.S_inv @ M @ al.S @ A_key  # (keyframe → this frame, full-res) ∘ keyframe warp
+            M = self.motion.update(work, hidden, accept=(lambda M: self._passes(full(M), state)) if gated else None)
+        return None if M is None else full(M)
 
-    def propose(self, work, state):
-        A = self.measure(work, state)
-        if A is None:
-            return None
+    def _passes(self, A: np.ndarray, state: HybridState) -> bool:
+        """Whether a measurement of the surroundings moves the target no further than the view can move: a consensus
+        that jumps is the occluder's. Judged from the estimate, and from where the measured track's velocity
+        continues (a view sweeping 5-7 px a frame, hand-held at 10 fps: from the estimate alone every correct
+        measurement was refused, the estimate fell behind and the chain was restarted from it)."""
         t = _translation(A, state.center0)
         bound = self.gate_px * (1 + state.predict_run)
-        # a consensus that jumps is the occluder's: judged from the estimate, and from where the measured track's
-        # velocity continues (a view sweeping 5-7 px a frame, hand-held at 10 fps: from the estimate alone every
-        # correct measurement was refused, the estimate fell behind and the chain was restarted from it)
+        if np.linalg.norm(t - _translation(state.A, state.center0)) <= bound:
+            return True
         continued = self._continued(state) if self.continues else None
-        if np.linalg.norm(t - _translation(state.A, state.center0)) > bound and (
-                continued is None or np.linalg.norm(t - continued) > bound):
-            return None
-        return Proposal(A, Kind.RELATIVE, Mode.PREDICT, self.name)
+        return continued is not None and bool(np.linalg.norm(t - continued) <= bound)
+
+    def propose(self, work, state):
+        A = self.measure(work, state, gated=True)
+        return None if A is None else Proposal(A, Kind.RELATIVE, Mode.PREDICT, self.name)
 
     def on_aligned(self, work, state):
         self.motion.reset()  # the chain starts again from the new keyframe
