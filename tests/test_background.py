@@ -6,10 +6,10 @@ import pytest
 
 from hvs_sim.errors import HvsError
 from hvs_sim.tracking import make_tracker
+from hvs_sim.tracking.anchor import KeyframeAnchor
 from hvs_sim.tracking.background import (
     BackgroundConfig,
     BackgroundMotion,
-    KeyframeAnchor,
     _consensus,
     _grown_plane,
     _plane_refit,

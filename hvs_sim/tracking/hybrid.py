@@ -20,7 +20,7 @@ Two changes to the paper in the predict path, both on by default and both measur
   surroundings give no trustworthy motion (a person filling the whole view), continuing from the
   last background-based positions. After such predictor-only frames the chain would carry the
   predictor's error to the end of the occlusion, so as soon as the wall shows again the frame is
-  measured against earlier aligned keyframes instead (`reanchor`, background.KeyframeAnchor).
+  measured against earlier aligned keyframes instead (`reanchor`, anchor.KeyframeAnchor).
 - OP_t over colour channels (`colour_occlusion`, occlusion.py): grey OP_t reported a flag half
   covered by a brown sleeve as clear, so LK aligned on the sleeve.
 

@@ -3,7 +3,7 @@ target could not be aligned, or nothing. The hybrid tries them in a fixed order 
 proposal (ViSP composes its template trackers the same way: parts with one interface).
 
 - `KeyframeAnchorSource`: after frames that only the predictor moved, the target measured against
-  earlier aligned keyframes (background.KeyframeAnchor) — an absolute measurement.
+  earlier aligned keyframes (anchor.KeyframeAnchor) — an absolute measurement.
 - `SceneMotionSource`: the last aligned (or re-anchored) pose moved by the similarity motion of the
   surroundings since then (background.BackgroundMotion) — a relative measurement.
 - `PredictorSource`: the motion predictor's extrapolation (GRU, constant velocity, hold), bounded:
@@ -21,7 +21,8 @@ from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
-from hvs_sim.tracking.background import COVERED_OP, BackgroundConfig, BackgroundMotion, KeyframeAnchor
+from hvs_sim.tracking.anchor import KeyframeAnchor
+from hvs_sim.tracking.background import COVERED_OP, BackgroundConfig, BackgroundMotion
 from hvs_sim.tracking.base import Mode
 from hvs_sim.tracking.predictors import MotionPredictor
 from hvs_sim.tracking.warp import apply, matrix_to_pose, translate
