@@ -1,4 +1,4 @@
-"""The hybrid's scene-motion predict path (tracking/background.py) and colour OP_t."""
+"""The hybrid's scene-motion predict path (tracking/background.py, tracking/anchor.py) and colour OP_t."""
 
 import cv2
 import numpy as np

@@ -13,6 +13,7 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
+# the chain's corner, LK and RANSAC helpers (background.py), shared so that both measure the scene the same way
 from hvs_sim.tracking.background import (
     CORNER_BLOCK_SIZE,
     RANSAC_MAX_ITERS,
@@ -55,7 +56,8 @@ class _Keyframe:
 
 
 class KeyframeAnchor:
-    """Similarity reference → current frame measured against frames where the target was aligned.
+    """Reference → current frame measured against frames where the target was aligned (a similarity, or a keyframe's
+    plane with `anchor_plane`; a homography for a homography tracker).
 
     The chain in BackgroundMotion starts again from the motion predictor's estimate after frames
     with nothing to measure (a person filling the view), and carries that estimate's error to the
@@ -137,7 +139,7 @@ class KeyframeAnchor:
         return best[0]
 
     def update(self, grey: np.ndarray, predicted: np.ndarray) -> np.ndarray | None:
-        """Similarity reference → `grey`, searched from `predicted`, or None when not trustworthy."""
+        """Reference → `grey` (as KeyframeAnchor), searched from `predicted`, or None when not trustworthy."""
         c = self.config
         plane = self.plane(grey, predicted)
         if plane is not None:

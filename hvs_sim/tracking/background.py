@@ -289,8 +289,8 @@ def _grown_plane(S: np.ndarray, inl: np.ndarray, src: np.ndarray, dst: np.ndarra
         return None
     H = H / H[2, 2]
     sigma = ransac_px / 2
-    if _gric(H, src, dst, sigma, HOMOGRAPHY_DOF) >= _gric(S, src, dst, sigma, SIMILARITY_DOF):
-        return None
+    if not _gric(H, src, dst, sigma, HOMOGRAPHY_DOF) < _gric(S, src, dst, sigma, SIMILARITY_DOF):
+        return None  # (and where either is not finite)
     return H
 
 
@@ -346,7 +346,8 @@ def _per_frame(S: np.ndarray, frames: int) -> np.ndarray:
 
 
 class BackgroundMotion:
-    """Similarity keyframe → current frame of the scene in view (work pixels)."""
+    """Keyframe → current frame of the scene in view (work pixels): a similarity, or a homography where hops were
+    refitted or grown into a plane."""
 
     def __init__(self, config: BackgroundConfig = BackgroundConfig()):
         self.config = config
@@ -405,7 +406,7 @@ class BackgroundMotion:
         RANSAC's tolerance, but several pixels over a few frames, where RANSAC rejects them. Where the long hop's
         consensus is refused (a coat sweeping in gives the only one of the 5-frame hop), the short one is tried."""
         self.frame += 1
-        sources = list(self.chain)[:1] if len(self.chain) == self.config.hop else []
+        sources = list(self.chain)[:1] if len(self.chain) == self.config.hop > 1 else []
         sources += list(self.chain)[-1:]
         for k, src, M_src in sources:
             measured = self.step(src, grey, self.frame - k, hidden)

@@ -4,8 +4,8 @@ proposal (ViSP composes its template trackers the same way: parts with one inter
 
 - `KeyframeAnchorSource`: after frames that only the predictor moved, the target measured against
   earlier aligned keyframes (anchor.KeyframeAnchor) — an absolute measurement.
-- `SceneMotionSource`: the last aligned (or re-anchored) pose moved by the similarity motion of the
-  surroundings since then (background.BackgroundMotion) — a relative measurement.
+- `SceneMotionSource`: the last aligned (or re-anchored) pose moved by the motion of the surroundings since
+  then (a similarity, or the plane that holds it) (background.BackgroundMotion) — a relative measurement.
 - `PredictorSource`: the motion predictor's extrapolation (GRU, constant velocity, hold), bounded:
   after `max_frames` unmeasured frames it proposes `lost`.
 
@@ -114,10 +114,10 @@ class KeyframeAnchorSource:
 
 
 class SceneMotionSource:
-    """The pose at the chain's start moved by the scene's similarity motion since then. A person
+    """The pose at the chain's start moved by the scene's motion since then. A person
     filling most of the view can out-vote the scene in RANSAC; a wrong consensus jumps far more than
-    a hand-held or servoed camera moves between frames, so a proposal is refused past `gate_px` per
-    frame since the last measurement, both from the estimate and from where the last measured positions' velocity
+    a hand-held or servoed camera moves between frames, so each hop's measurement is refused past `gate_px` per
+    frame since the last measurement (`_passes`, inside BackgroundMotion.update, which then tries the shorter hop), both from the estimate and from where the last measured positions' velocity
     continues the track (`continues`; a view that sweeps faster than `gate_px` a frame is not a jump).
 
     The chain starts at the last aligned or re-anchored frame. A frame the scene cannot measure (a
@@ -137,7 +137,7 @@ class SceneMotionSource:
         self.last_aligned: tuple[int, np.ndarray] | None = None
         self.key = state.keyframe  # (work image, full-res warp) where the chain starts
         # the target's last two measured positions (frame index, full-res px): aligned, re-anchored or moved by the
-        # surroundings, never predicted; their velocity continues the measured track (propose)
+        # surroundings, never predicted; their velocity continues the measured track (_passes)
         self.measured_track: deque[tuple[int, np.ndarray]] = deque(maxlen=2)
         self._measured_at(state)
 
