@@ -22,7 +22,7 @@ from hvs_sim.tracking.background import (
     _transform,
     _trusted_similarity,
 )
-from hvs_sim.tracking.warp import warp_image
+from hvs_sim.tracking.warp import normalised_homography, warp_image
 
 # KeyframeAnchor's plane (BackgroundConfig.anchor_plane): a keyframe's homography counts on at least this many inliers
 # (within ANCHOR_PLANE_PX), spread over at least this share of the view's width and height. A similarity pooled over
@@ -98,8 +98,9 @@ class KeyframeAnchor:
         src, dst = self._follow_raw(k, grey, predicted)
         if len(src) < ANCHOR_PLANE_MIN_INLIERS:
             return None, 0
-        H, mask = cv2.findHomography(src, dst, cv2.RANSAC, ANCHOR_PLANE_PX, maxIters=RANSAC_MAX_ITERS)
-        if H is None or not np.all(np.isfinite(H)) or abs(H[2, 2]) < 1e-12:
+        found, mask = cv2.findHomography(src, dst, cv2.RANSAC, ANCHOR_PLANE_PX, maxIters=RANSAC_MAX_ITERS)
+        H = normalised_homography(found)
+        if H is None:
             return None, 0
         inl = mask[:, 0].astype(bool)
         n = int(inl.sum())
@@ -107,7 +108,7 @@ class KeyframeAnchor:
         if n < max(ANCHOR_PLANE_MIN_INLIERS, self.config.min_inlier_ratio * len(src)) or \
                 np.any(np.ptp(src[inl], axis=0) < ANCHOR_PLANE_SPREAD * np.array([w, h])):
             return None, 0
-        return (H / H[2, 2]) @ k.A, n
+        return H @ k.A, n
 
     def _follow_raw(self, k: _Keyframe, grey: np.ndarray, predicted: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Corners of `k` (its own pixels) and where LK finds them in `grey` (trustworthy ones only)."""

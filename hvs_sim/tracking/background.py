@@ -42,7 +42,7 @@ import numpy as np
 
 from hvs_sim.errors import ConfigError
 from hvs_sim.tracking.occlusion import median_1d
-from hvs_sim.tracking.warp import apply, is_affine
+from hvs_sim.tracking.warp import apply, is_affine, normalised_homography
 from hvs_sim.validate import check_flags, check_number
 
 
@@ -242,17 +242,23 @@ def _trusted_similarity(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig,
     return _consensus(src, dst, c, expected)[0]
 
 
+def _carries_plane(pts: np.ndarray, shape: tuple[int, int]) -> bool:
+    """Whether a hop's points can carry a homography: HOMOGRAPHY_MIN_INLIERS of them, spread over HOMOGRAPHY_SPREAD of
+    the view both ways (a strip of wall extrapolates one badly)."""
+    h, w = shape
+    return len(pts) >= HOMOGRAPHY_MIN_INLIERS and bool(np.ptp(pts[:, 0]) >= HOMOGRAPHY_SPREAD * w) and \
+        bool(np.ptp(pts[:, 1]) >= HOMOGRAPHY_SPREAD * h)
+
+
 def _plane_refit(S: np.ndarray, src: np.ndarray, dst: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """The hop's similarity consensus (`src` → `dst`, its inliers) refitted as a homography where the points can
     carry one (HOMOGRAPHY_*), else S."""
+    if not _carries_plane(src, shape):
+        return S
+    H = normalised_homography(cv2.findHomography(src, dst, 0)[0])
+    if H is None:
+        return S
     h, w = shape
-    if len(src) < HOMOGRAPHY_MIN_INLIERS or np.ptp(src[:, 0]) < HOMOGRAPHY_SPREAD * w or \
-            np.ptp(src[:, 1]) < HOMOGRAPHY_SPREAD * h:
-        return S
-    H, _ = cv2.findHomography(src, dst, 0)
-    if H is None or not np.all(np.isfinite(H)) or abs(H[2, 2]) < 1e-12:
-        return S
-    H = H / H[2, 2]
     centre = np.array([[(w - 1) / 2.0, (h - 1) / 2.0]])
     return H if np.linalg.norm(apply(H, centre) - apply(S, centre)) <= HOMOGRAPHY_AGREE_PX else S
 
@@ -268,14 +274,14 @@ def _grown_plane(S: np.ndarray, inl: np.ndarray, src: np.ndarray, dst: np.ndarra
     """The homography of the plane that contains the similarity consensus (S, its inliers `inl`) among all the
     followed points src → dst, where its inliers spread over the view (HOMOGRAPHY_*) and GRIC prefers it to S; else
     None (PLANE_*, GRIC_*)."""
-    h, w = shape
     left = np.ones(len(src), bool)
     for _ in range(PLANE_MODELS):
         idx = np.flatnonzero(left)
         if len(idx) < HOMOGRAPHY_MIN_INLIERS:
             return None
-        H, mask = cv2.findHomography(src[idx], dst[idx], cv2.RANSAC, ransac_px, maxIters=RANSAC_MAX_ITERS)
-        if H is None or not np.all(np.isfinite(H)) or abs(H[2, 2]) < 1e-12:
+        found, mask = cv2.findHomography(src[idx], dst[idx], cv2.RANSAC, ransac_px, maxIters=RANSAC_MAX_ITERS)
+        H = normalised_homography(found)
+        if H is None:
             return None
         plane = np.zeros(len(src), bool)
         plane[idx[mask[:, 0].astype(bool)]] = True
@@ -284,10 +290,8 @@ def _grown_plane(S: np.ndarray, inl: np.ndarray, src: np.ndarray, dst: np.ndarra
         left &= ~plane
     else:
         return None
-    if plane.sum() < HOMOGRAPHY_MIN_INLIERS or np.ptp(src[plane, 0]) < HOMOGRAPHY_SPREAD * w or \
-            np.ptp(src[plane, 1]) < HOMOGRAPHY_SPREAD * h:
+    if not _carries_plane(src[plane], shape):
         return None
-    H = H / H[2, 2]
     sigma = ransac_px / 2
     if not _gric(H, src, dst, sigma, HOMOGRAPHY_DOF) < _gric(S, src, dst, sigma, SIMILARITY_DOF):
         return None  # (and where either is not finite)

@@ -117,8 +117,9 @@ class SceneMotionSource:
     """The pose at the chain's start moved by the scene's motion since then. A person
     filling most of the view can out-vote the scene in RANSAC; a wrong consensus jumps far more than
     a hand-held or servoed camera moves between frames, so each hop's measurement is refused past `gate_px` per
-    frame since the last measurement (`_passes`, inside BackgroundMotion.update, which then tries the shorter hop), both from the estimate and from where the last measured positions' velocity
-    continues the track (`continues`; a view that sweeps faster than `gate_px` a frame is not a jump).
+    frame since the last measurement (`_passes`, inside BackgroundMotion.update, which then tries the shorter hop),
+    both from the estimate and from where the last measured positions' velocity continues the track (`continues`; a
+    view that sweeps faster than `gate_px` a frame is not a jump).
 
     The chain starts at the last aligned or re-anchored frame. A frame the scene cannot measure (a
     coat sweeps past the lens) does not end it: for up to `patience` such frames in a row the next

@@ -122,6 +122,14 @@ def fit_similarity(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     return A
 
 
+def normalised_homography(H: np.ndarray | None) -> np.ndarray | None:
+    """An OpenCV homography scaled to H[2, 2] = 1, or None where there is none (not found, not finite, or
+    H[2, 2] ≈ 0: a plane seen edge-on)."""
+    if H is None or not np.all(np.isfinite(H)) or abs(H[2, 2]) < 1e-12:
+        return None
+    return H / H[2, 2]
+
+
 def perspective_transform(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     """The homography (3×3, A[2, 2] = 1) taking four points src → dst, in float64 (cv2.getPerspectiveTransform
     works in float32: ~1e-4 px)."""
@@ -133,10 +141,10 @@ def perspective_transform(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
             a, b, c = np.delete(pts, i, axis=0)
             if abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])) < 1e-9 * max(np.ptp(pts), 1.0) ** 2:
                 raise InputError("no homography takes these four points to the others: three of them lie on a line")
-    H, _ = cv2.findHomography(src, dst, 0)
-    if H is None or not np.all(np.isfinite(H)) or abs(H[2, 2]) < 1e-12:
+    H = normalised_homography(cv2.findHomography(src, dst, 0)[0])
+    if H is None:
         raise InputError("no homography takes these four points to the others")
-    return H / H[2, 2]
+    return H
 
 
 def inverse_3x3(M: np.ndarray) -> np.ndarray | None:
