@@ -42,7 +42,7 @@ import numpy as np
 
 from hvs_sim.errors import ConfigError
 from hvs_sim.tracking.occlusion import median_1d
-from hvs_sim.tracking.warp import apply, is_affine, normalised_homography
+from hvs_sim.tracking.warp import apply, fit_turn, is_affine, normalised_homography
 from hvs_sim.validate import check_flags, check_number
 
 
@@ -75,6 +75,9 @@ class BackgroundConfig:
     # ... and the similarity's consensus is grown into the plane that contains it where GRIC prefers that plane
     # (module docstring); False: the refit on the similarity's own inliers only
     grow_plane: bool = True
+    # ... and a hop neither refits nor grows into a plane is refitted on its inliers as the camera's turn
+    # (warp.fit_turn: a similarity after a rotation about the camera's centre, TURN_FOCAL) instead of kept a similarity
+    turn: bool = True
     occluder_prior: bool = True  # a consensus on the hidden target is the occluder's (module docstring)
     # at least this many corners in each of CELL_GRID × CELL_GRID parts of the view (at that part's own contrast);
     # 0: the strongest `max_points` of the whole view only, as before
@@ -96,7 +99,7 @@ class BackgroundConfig:
             raise ConfigError(f"need ransac_px > 0, max_fb_px > 0 and anchor_points >= 8, got "
                               f"{self.ransac_px}, {self.max_fb_px}, {self.anchor_points}")
         check_number("background cell_corners", self.cell_corners, 0, integer=True)
-        check_flags(self, ("competing", "homography", "grow_plane", "occluder_prior", "anchor_plane"))
+        check_flags(self, ("competing", "homography", "grow_plane", "turn", "occluder_prior", "anchor_plane"))
         if self.max_points < 8 or self.min_inliers < 4:
             raise ConfigError(f"background motion needs max_points >= 8 and min_inliers >= 4, "
                               f"got {self.max_points}, {self.min_inliers}")
@@ -140,10 +143,13 @@ PLANE_MODELS = 3
 PLANE_KEEP = 0.8
 # GRIC (Torr, "Geometric motion segmentation and model selection", 1998) for a 2-D point transfer: residuals in units of
 # the noise σ (half the RANSAC threshold), each capped at λ3·(r − d) = 2·(4 − 2) = 4 (an outlier's cost); a model pays
-# log(r·n) per parameter (similarity 4, homography 8). The λ1·d·n term is the same for both and cancels
+# log(r·n) per parameter (similarity 4, camera turn 6, homography 8). The λ1·d·n term is the same for both and cancels
 GRIC_CAP = 4.0
 GRIC_R = 4
-SIMILARITY_DOF, HOMOGRAPHY_DOF = 4, 8
+SIMILARITY_DOF, TURN_DOF, HOMOGRAPHY_DOF = 4, 6, 8
+# the nominal focal length of the camera's turn (BackgroundConfig.turn), in widths of the view: a phone's or webcam's
+# ~50-60° field. The fit barely depends on it (dev split, the coat's hops: 0.6 and 1.6 widths within 0.02 work px)
+TURN_FOCAL = 1.0
 
 
 def _lk_params(c: BackgroundConfig) -> dict:
@@ -334,6 +340,26 @@ def _transform(pts: np.ndarray, M: np.ndarray) -> np.ndarray:
     return out.astype(np.float32)
 
 
+def _hop_model(S: np.ndarray, inl: np.ndarray, src: np.ndarray, dst: np.ndarray, shape: tuple[int, int],
+               c: BackgroundConfig) -> np.ndarray:
+    """The motion a hop chains, from its similarity consensus (S, its inliers `inl` among src → dst): the plane that
+    contains it (grow_plane), else its inliers' homography where they carry one, else their camera turn where GRIC
+    prefers it on them (turn), else S."""
+    grown = _grown_plane(S, inl, src, dst, shape, c.ransac_px) if c.grow_plane else None
+    if grown is not None:
+        return grown
+    refit = _plane_refit(S, src[inl], dst[inl], shape)
+    if refit is not S or not c.turn:
+        return refit
+    h, w = shape
+    p, q = src[inl], dst[inl]
+    turned = fit_turn(S, p, q, TURN_FOCAL * w, np.array([(w - 1) / 2.0, (h - 1) / 2.0]))
+    sigma = c.ransac_px / 2
+    if turned is None or not _gric(turned, p, q, sigma, TURN_DOF) < _gric(S, p, q, sigma, SIMILARITY_DOF):
+        return S  # a strip that moves as a similarity: the turn's two more parameters would only fit its noise
+    return turned
+
+
 def _per_frame(S: np.ndarray, frames: int) -> np.ndarray:
     """The similarity that, applied `frames` times, gives S (its rotation, log-scale and translation shared out)."""
     if frames == 1:
@@ -395,8 +421,7 @@ class BackgroundMotion:
             return None
         if not c.homography:
             return S, S
-        grown = _grown_plane(S, inl, p, q, src.shape[:2], c.ransac_px) if c.grow_plane else None
-        return (grown if grown is not None else _plane_refit(S, p[inl], q[inl], src.shape[:2])), S
+        return _hop_model(S, inl, p, q, src.shape[:2], c), S
 
     def update(self, grey: np.ndarray, hidden: np.ndarray | None = None,
                accept: Callable[[np.ndarray], bool] | None = None) -> np.ndarray | None:

@@ -95,7 +95,7 @@ class HybridConfig:
     # most a background-measured position may differ from the last estimate (px, per frame since
     # the last measurement); 8 px let a wrong 17 px jump through on a validation sequence (README)
     background_gate_px: float = 4.0
-    # ... or from where the last measured positions' velocity continues the track (SceneMotionSource._passes): a
+    # ... or from where the scene's measured motion carries the last measured position (SceneMotionSource._passes): a
     # hand-held view sweeping 5-7 px a frame was otherwise refused on every frame and the estimate fell behind (the
     # photos' dev split, `camo`: 100-225 px off under the look-alike person); False: from the estimate alone
     background_gate_continues: bool = True

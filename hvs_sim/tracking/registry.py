@@ -68,9 +68,12 @@ TRACKERS: dict[str, TrackerSpec] = {
     "hybrid_plane_refit": TrackerSpec("hybrid", {"background_config": {"grow_plane": False}},
                                       "each hop refitted as a homography on its similarity consensus's own inliers "
                                       "only, not grown into the plane that contains them", "#8ca252"),
+    "hybrid_similarity_hops": TrackerSpec("hybrid", {"background_config": {"turn": False}},
+                                          "a hop that does not carry a plane stays a similarity, not refitted as the "
+                                          "camera's turn", "#d6616b"),
     "hybrid_estimate_gate": TrackerSpec("hybrid", {"background_gate_continues": False},
                                         "a measurement of the surroundings is judged from the estimate alone, not "
-                                        "also from where the measured track's velocity continues", "#e7ba52"),
+                                        "also from where the scene's measured motion carries the last measured position", "#e7ba52"),
     "hybrid_no_surroundings_veto": TrackerSpec("hybrid", {"surroundings_veto_frames": 0},
                                                "a far re-acquisition the surroundings contradict is not held back",
                                                "#b5cf6b"),

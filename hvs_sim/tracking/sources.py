@@ -66,8 +66,8 @@ def _translation(A: np.ndarray, center0: np.ndarray) -> np.ndarray:
 
 
 ANCHOR_DRIFT_PX = 0.5  # px a frame the scene's chain may have drifted since the last alignment (KeyframeAnchorSource)
-# SceneMotionSource: the measured track's velocity counts from two positions at most this many frames apart, the later
-# one at most this many frames ago (a hand-held view's speed changes within a few frames) ...
+# SceneMotionSource: the scene's motion continues the last measured position at most this many frames old (a hand-held
+# view's speed changes within a few frames) ...
 MEASURED_VELOCITY_GAP = 3
 CONTINUE_MIN_SPEED = 0.5  # ... and from half the gate a frame (a fraction of background_gate_px)
 
@@ -118,8 +118,8 @@ class SceneMotionSource:
     filling most of the view can out-vote the scene in RANSAC; a wrong consensus jumps far more than
     a hand-held or servoed camera moves between frames, so each hop's measurement is refused past `gate_px` per
     frame since the last measurement (`_passes`, inside BackgroundMotion.update, which then tries the shorter hop),
-    both from the estimate and from where the last measured positions' velocity continues the track (`continues`; a
-    view that sweeps faster than `gate_px` a frame is not a jump).
+    both from the estimate and from where the scene's measured motion carries the last measured position
+    (`continues`; a view that sweeps faster than `gate_px` a frame is not a jump).
 
     The chain starts at the last aligned or re-anchored frame. A frame the scene cannot measure (a
     coat sweeps past the lens) does not end it: for up to `patience` such frames in a row the next
@@ -137,29 +137,31 @@ class SceneMotionSource:
         self.motion.reset(forget_motion=True)
         self.last_aligned: tuple[int, np.ndarray] | None = None
         self.key = state.keyframe  # (work image, full-res warp) where the chain starts
-        # the target's last two measured positions (frame index, full-res px): aligned, re-anchored or moved by the
-        # surroundings, never predicted; their velocity continues the measured track (_passes)
-        self.measured_track: deque[tuple[int, np.ndarray]] = deque(maxlen=2)
+        # the target's last measured pose (frame index, full-res warp): aligned, re-anchored or moved by the
+        # surroundings, never predicted; the scene's motion continues it (_passes)
+        self.measured_track: deque[tuple[int, np.ndarray]] = deque(maxlen=1)
         self._measured_at(state)
 
     def _measured_at(self, state) -> None:
-        self.measured_track.append((state.frame_index, _translation(state.A, state.center0)))
+        self.measured_track.append((state.frame_index, state.A.copy()))
 
     def _continued(self, state) -> np.ndarray | None:
-        """Where the measured track's own velocity puts the target on this frame, or None without a recent velocity
-        (its two positions MEASURED_VELOCITY_GAP or fewer frames apart, the later one at most that many frames ago)."""
-        if len(self.measured_track) < 2:
+        """Where the scene's last per-frame motion (BackgroundMotion.velocity, measured over a hop) carries the last
+        measured position on to this frame, or None without a recent one (MEASURED_VELOCITY_GAP). Not the velocity of
+        the last two measured positions: they come from different interleaved chains of hops, which can differ by
+        2-3 px, and that noise refused the correct measurements of a view sweeping 6 px a frame (dev split, `long`)."""
+        f1, A1 = self.measured_track[-1]
+        n, V = state.frame_index - f1, self.motion.velocity
+        if V is None or n > MEASURED_VELOCITY_GAP:
             return None
-        (f0, t0), (f1, t1) = self.measured_track
-        if f1 - f0 > MEASURED_VELOCITY_GAP or state.frame_index - f1 > MEASURED_VELOCITY_GAP:
-            return None
-        v = (t1 - t0) / (f1 - f0)
+        al = self.aligner
+        t1, t = (_translation(A, state.center0) for A in (A1, al.S_inv @ np.linalg.matrix_power(V, n) @ al.S @ A1))
         # slower than half the gate a frame, the estimate's own bound already leaves half of it for the view's
         # acceleration; a continuation would only widen it towards a slowly swaying person (bench track dev seed 102,
         # `partial`: a 5 px jump of a person's consensus let in along a 1.3 px/frame drift)
-        if np.linalg.norm(v) < CONTINUE_MIN_SPEED * self.gate_px:
+        if np.linalg.norm(t - t1) < CONTINUE_MIN_SPEED * self.gate_px * max(n, 1):
             return None
-        return t1 + v * (state.frame_index - f1)
+        return t
 
     def measure(self, work, state: HybridState, peek: bool = False, gated: bool = False) -> np.ndarray | None:
         """Where the surroundings' motion since the chain's start puts the target (full-res warp); None when the
@@ -186,9 +188,9 @@ class SceneMotionSource:
 
     def _passes(self, A: np.ndarray, state: HybridState) -> bool:
         """Whether a measurement of the surroundings moves the target no further than the view can move: a consensus
-        that jumps is the occluder's. Judged from the estimate, and from where the measured track's velocity
-        continues (a view sweeping 5-7 px a frame, hand-held at 10 fps: from the estimate alone every correct
-        measurement was refused, the estimate fell behind and the chain was restarted from it)."""
+        that jumps is the occluder's. Judged from the estimate, and from where the scene's measured motion carries the
+        last measured position (_continued; a view sweeping 5-7 px a frame, hand-held at 10 fps: from the estimate
+        alone every correct measurement was refused, the estimate fell behind and the chain was restarted from it)."""
         t = _translation(A, state.center0)
         bound = self.gate_px * (1 + state.predict_run)
         if np.linalg.norm(t - _translation(state.A, state.center0)) <= bound:

@@ -16,6 +16,9 @@ from hvs_sim.errors import InputError, choice_error
 
 WARPS = ("similarity", "homography")  # the warp models a tracker can estimate (`warp=` setting)
 WARP_PARAMS = {"similarity": 4, "homography": 8}
+TURN_ITERS = 6  # fit_turn's Gauss–Newton steps (it converges in 2–4 from a hop's similarity)
+TURN_STEP = 1e-6  # its numerical derivative's step (rotation in rad; scale and shift in focal lengths)
+TURN_DONE = 1e-9  # a step this small (same units) has converged
 
 
 def check_warp(warp: str) -> str:
@@ -120,6 +123,43 @@ def fit_similarity(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     A[:2, :2] = R
     A[:2, 2] = md - R @ ms
     return A
+
+
+def fit_turn(S: np.ndarray, src: np.ndarray, dst: np.ndarray, focal: float, centre: np.ndarray) -> np.ndarray | None:
+    """Least-squares "turn" src → dst (3×3): the homography K·R·K⁻¹ of a camera turning about its centre (focal
+    length `focal`, principal point `centre`), then scaled and shifted; Gauss–Newton from the similarity S.
+
+    A hand-held camera mostly turns: a wall then moves by this homography, whose perspective a similarity misses.
+    Its 6 parameters extrapolate from a strip of the view where a free homography (8) does not. None where the fit
+    is degenerate or not finite."""
+    c = np.asarray(centre, float)
+    p, q = (np.asarray(src, float) - c) / focal, (np.asarray(dst, float) - c) / focal
+    x = np.zeros(6)  # rotation vector (3), log-scale, shift (2), in units of the focal length
+    x[2], x[3] = math.atan2(S[1, 0], S[0, 0]), math.log(max(math.hypot(S[0, 0], S[1, 0]), 1e-12))
+    x[4:] = (apply(S, c[None])[0] - c) / focal
+    hom = np.c_[p, np.ones(len(p))]
+
+    def residual(x: np.ndarray) -> np.ndarray:
+        m = hom @ cv2.Rodrigues(x[:3])[0].T
+        return (math.exp(x[3]) * m[:, :2] / m[:, 2:] + x[4:] - q).ravel()
+
+    for _ in range(TURN_ITERS):
+        r = residual(x)
+        J = np.stack([(residual(x + d) - r) / TURN_STEP for d in np.eye(6) * TURN_STEP], axis=1)
+        try:
+            dx = np.linalg.solve(J.T @ J, -J.T @ r)
+        except np.linalg.LinAlgError:
+            return None
+        x += dx
+        if not np.all(np.isfinite(x)):
+            return None
+        if np.abs(dx).max() < TURN_DONE:
+            break
+    K = np.array([[focal, 0.0, c[0]], [0.0, focal, c[1]], [0.0, 0.0, 1.0]])
+    s = math.exp(x[3])
+    T = np.array([[s, 0.0, x[4]], [0.0, s, x[5]], [0.0, 0.0, 1.0]])
+    H = K @ T @ cv2.Rodrigues(x[:3])[0] @ np.linalg.inv(K)
+    return normalised_homography(H)
 
 
 def normalised_homography(H: np.ndarray | None) -> np.ndarray | None:
