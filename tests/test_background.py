@@ -127,6 +127,9 @@ def test_bad_background_settings_are_clear(bad):
         BackgroundConfig(**bad)
     with pytest.raises(HvsError, match="background_gate_px"):
         make_tracker("hybrid", background_gate_px=0.0)
+    for frames in (-1, 2.5, True):
+        with pytest.raises(HvsError, match="scene_inertia_frames"):
+            make_tracker("hybrid", scene_inertia_frames=frames)
 
 
 def checked_shirt_over(grey: np.ndarray, sway: float, box) -> np.ndarray:
@@ -361,3 +364,22 @@ def test_a_sweeping_view_is_continued_by_the_scenes_own_motion(flag_frame):
     assert not sm._passes(at(-3.5, 3.0), st)
     sm.motion.velocity = None  # no measured motion: judged from the estimate alone
     assert not sm._passes(at(-3.5, -3.0), st)
+
+
+@pytest.mark.parametrize("frames", [5, 0])
+def test_a_view_with_nothing_to_measure_is_carried_on_by_the_cameras_inertia(frames, flag_frame):
+    """The view pans 4 px a frame; then a person fills the whole of it for three frames. The surroundings give
+    nothing, and the estimate is carried on by the scene's last measured motion (`scene_inertia_frames`); with 0 the
+    predictor guesses instead, which here holds the estimate nearly still."""
+    n = 14
+    path = np.cumsum(np.tile([4.0, -1.5], (n, 1)), axis=0)
+    path -= path[0]
+    tr = tracking_on(flag_frame, path, scene_inertia_frames=frames)
+    for _ in range(11, n):
+        tk = tr.update(np.full_like(flag_frame, 90))
+        assert tk.mode == "predict"
+    error = float(np.linalg.norm(tk.center - (roi_center(ROI) + path[n - 1])))
+    if frames:
+        assert error <= 1.0, error
+    else:
+        assert error > 3.0, error

@@ -125,7 +125,8 @@ class HybridTracker(Tracker):
         self.scene_motion = None
         if config.background:
             self.scene_motion = SceneMotionSource(self.aligner, config.background_config, config.background_gate_px,
-                                                  continues=config.background_gate_continues)
+                                                  continues=config.background_gate_continues,
+                                                  inertia=config.scene_inertia_frames)
             self.scene_sources.append(self.scene_motion)
         self.predictor_source = PredictorSource(predictor, config.max_predict_frames)
         self.sources: list[MotionSource] = []

@@ -10,7 +10,7 @@ from hvs_sim.tracking.aligner import DeepLKConfig
 from hvs_sim.tracking.background import BackgroundConfig
 from hvs_sim.tracking.feature_lk import LKConfig
 from hvs_sim.tracking.predictors import PREDICTORS
-from hvs_sim.validate import check_flags
+from hvs_sim.validate import check_flags, check_number
 
 # The hybrid's feature LK (README, tracker speed). The global match seeds it within about a work pixel on
 # every frame it aligns, so it starts at pool1 (stride 2) without pool2's wider basin, which cost the
@@ -99,6 +99,11 @@ class HybridConfig:
     # hand-held view sweeping 5-7 px a frame was otherwise refused on every frame and the estimate fell behind (the
     # photos' dev split, `camo`: 100-225 px off under the look-alike person); False: from the estimate alone
     background_gate_continues: bool = True
+    # frames for which, while the surroundings give nothing the gate takes, the estimate is carried on by the scene's
+    # last measured per-frame motion (the camera's inertia) before the predictor guesses: as a coat swept in, the GRU
+    # held the estimate still while the view moved 3-6 px a frame, and the chain restarted from it 27 px off (photos'
+    # dev split, `long`); 0: the predictor guesses from the first such frame, as in the paper
+    scene_inertia_frames: int = 5
     background_config: BackgroundConfig = field(default_factory=BackgroundConfig)
     reanchor: bool = True  # after predictor-only frames, measure against aligned keyframes (KeyframeAnchor)
     # verified re-acquisition (a change to the paper): an alignment further than `reacquire_px` (plus
@@ -170,6 +175,7 @@ class HybridConfig:
                               f"{self.reacquire_px}, {self.reacquire_drift_px}, {self.reacquire_margin}")
         if not isinstance(self.reacquire_frames, int) or self.reacquire_frames < 1:
             raise ConfigError(f"reacquire_frames must be an int >= 1, got {self.reacquire_frames!r}")
+        check_number("scene_inertia_frames", self.scene_inertia_frames, 0, integer=True)
         v = self.surroundings_veto_frames
         if isinstance(v, bool) or not isinstance(v, int) or v < 0:
             raise ConfigError(f"surroundings_veto_frames must be an int >= 0 (0: off), got {v!r}")

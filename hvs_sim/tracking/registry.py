@@ -71,6 +71,9 @@ TRACKERS: dict[str, TrackerSpec] = {
     "hybrid_similarity_hops": TrackerSpec("hybrid", {"background_config": {"turn": False}},
                                           "a hop that does not carry a plane stays a similarity, not refitted as the "
                                           "camera's turn", "#d6616b"),
+    "hybrid_predictor_guess": TrackerSpec("hybrid", {"scene_inertia_frames": 0},
+                                          "where the surroundings give nothing, the predictor guesses at once (the "
+                                          "paper's), not the scene's last measured motion first", "#e7969c"),
     "hybrid_estimate_gate": TrackerSpec("hybrid", {"background_gate_continues": False},
                                         "a measurement of the surroundings is judged from the estimate alone, not "
                                         "also from where the scene's measured motion carries the last measured position", "#e7ba52"),

@@ -121,6 +121,9 @@ class SceneMotionSource:
     both from the estimate and from where the scene's measured motion carries the last measured position
     (`continues`; a view that sweeps faster than `gate_px` a frame is not a jump).
 
+    Where the surroundings give nothing the gate takes, the estimate is carried on by the scene's last measured
+    per-frame motion for up to `inertia` frames (a guess, as the predictor's), before the predictor guesses.
+
     The chain starts at the last aligned or re-anchored frame. A frame the scene cannot measure (a
     coat sweeps past the lens) does not end it: for up to `patience` such frames in a row the next
     measurement still comes from the chain's last good frame, so a one-frame guess of the predictor
@@ -128,8 +131,9 @@ class SceneMotionSource:
 
     name = "scene_motion"
 
-    def __init__(self, aligner: Aligner, config: BackgroundConfig, gate_px: float, continues: bool = True):
-        self.aligner, self.gate_px, self.continues = aligner, gate_px, continues
+    def __init__(self, aligner: Aligner, config: BackgroundConfig, gate_px: float, continues: bool = True,
+                 inertia: int = 0):
+        self.aligner, self.gate_px, self.continues, self.inertia = aligner, gate_px, continues, inertia
         self.patience = config.hop
         self.motion = BackgroundMotion(config)
 
@@ -200,7 +204,15 @@ class SceneMotionSource:
 
     def propose(self, work, state):
         A = self.measure(work, state, gated=True)
-        return None if A is None else Proposal(A, Kind.RELATIVE, Mode.PREDICT, self.name)
+        if A is not None:
+            return Proposal(A, Kind.RELATIVE, Mode.PREDICT, self.name)
+        V = self.motion.velocity
+        if V is None or state.predict_run >= self.inertia:
+            return None
+        # nothing the gate takes: for up to `inertia` frames a guess, the estimate carried on by the scene's last
+        # measured per-frame motion (the camera's inertia), before the predictor's
+        al = self.aligner
+        return Proposal(al.S_inv @ V @ al.S @ state.A, Kind.PREDICTED, Mode.PREDICT, self.name)
 
     def on_aligned(self, work, state):
         self.motion.reset()  # the chain starts again from the new keyframe
