@@ -357,7 +357,7 @@ def test_a_sweeping_view_is_continued_by_the_scenes_own_motion(flag_frame):
         return np.array([[1.0, 0.0, x], [0.0, 1.0, y], [0.0, 0.0, 1.0]])
 
     st.A = at(2.5, -2.0)
-    sm.measured_track.append((st.frame_index - 1, st.A.copy()))
+    sm.last_measured = (st.frame_index - 1, st.A.copy())
     sm.motion.velocity = at(-6.0 * s, -1.0 * s)  # the scene: (-6, -1) full-res px a frame
     assert tr.hconfig.background_gate_px < np.hypot(6.0, 1.0)
     assert sm._passes(at(-3.5, -3.0), st)  # where the scene's motion carries the estimate

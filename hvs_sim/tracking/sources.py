@@ -15,7 +15,6 @@ tell them what happened through `on_aligned`, `on_measured` and `on_predicted`.
 
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
@@ -143,18 +142,17 @@ class SceneMotionSource:
         self.key = state.keyframe  # (work image, full-res warp) where the chain starts
         # the target's last measured pose (frame index, full-res warp): aligned, re-anchored or moved by the
         # surroundings, never predicted; the scene's motion continues it (_passes)
-        self.measured_track: deque[tuple[int, np.ndarray]] = deque(maxlen=1)
-        self._measured_at(state)
+        self.last_measured: tuple[int, np.ndarray] = (state.frame_index, state.A.copy())
 
     def _measured_at(self, state) -> None:
-        self.measured_track.append((state.frame_index, state.A.copy()))
+        self.last_measured = (state.frame_index, state.A.copy())
 
     def _continued(self, state) -> np.ndarray | None:
         """Where the scene's last per-frame motion (BackgroundMotion.velocity, measured over a hop) carries the last
         measured position on to this frame, or None without a recent one (MEASURED_VELOCITY_GAP). Not the velocity of
         the last two measured positions: they come from different interleaved chains of hops, which can differ by
         2-3 px, and that noise refused the correct measurements of a view sweeping 6 px a frame (dev split, `long`)."""
-        f1, A1 = self.measured_track[-1]
+        f1, A1 = self.last_measured
         n, V = state.frame_index - f1, self.motion.velocity
         if V is None or n > MEASURED_VELOCITY_GAP:
             return None
