@@ -41,10 +41,11 @@ def _ransac_homography(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig) ->
     """RANSAC homography src → dst (3×3), or None when too few points agree on it."""
     if len(src) < max(c.min_inliers, 4):
         return None
-    H, mask = cv2.findHomography(src, dst, cv2.RANSAC, c.ransac_px, maxIters=RANSAC_MAX_ITERS)
-    if H is None or not np.all(np.isfinite(H)) or int(mask.sum()) < max(c.min_inliers, c.min_inlier_ratio * len(src)):
+    found, mask = cv2.findHomography(src, dst, cv2.RANSAC, c.ransac_px, maxIters=RANSAC_MAX_ITERS)
+    H = normalised_homography(found)
+    if H is None or int(mask.sum()) < max(c.min_inliers, c.min_inlier_ratio * len(src)):
         return None
-    return H / H[2, 2]
+    return H
 
 
 @dataclass

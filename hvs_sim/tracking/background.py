@@ -264,15 +264,27 @@ def _plane_refit(S: np.ndarray, src: np.ndarray, dst: np.ndarray, shape: tuple[i
     H = normalised_homography(cv2.findHomography(src, dst, 0)[0])
     if H is None:
         return S
-    h, w = shape
-    centre = np.array([[(w - 1) / 2.0, (h - 1) / 2.0]])
+    centre = _view_centre(shape)[None]
     return H if np.linalg.norm(apply(H, centre) - apply(S, centre)) <= HOMOGRAPHY_AGREE_PX else S
+
+
+def _view_centre(shape: tuple[int, int]) -> np.ndarray:
+    """The centre (x, y) of a view `shape` (h, w) pixels."""
+    h, w = shape
+    return np.array([(w - 1) / 2.0, (h - 1) / 2.0])
 
 
 def _gric(M: np.ndarray, src: np.ndarray, dst: np.ndarray, sigma: float, dof: int) -> float:
     """GRIC of the 2-D transfer M over the correspondences src → dst (lower is better; GRIC_* above)."""
     e2 = np.sum((apply(M, src) - dst) ** 2, axis=1) / sigma ** 2
     return float(np.minimum(e2, GRIC_CAP).sum() + dof * np.log(GRIC_R * len(src)))
+
+
+def _gric_prefers(M: np.ndarray, dof: int, S: np.ndarray, src: np.ndarray, dst: np.ndarray, ransac_px: float) -> bool:
+    """Whether GRIC prefers M (`dof` parameters) to the similarity S over src → dst, σ half the RANSAC threshold
+    (False where either is not finite)."""
+    sigma = ransac_px / 2
+    return bool(_gric(M, src, dst, sigma, dof) < _gric(S, src, dst, sigma, SIMILARITY_DOF))
 
 
 def _grown_plane(S: np.ndarray, inl: np.ndarray, src: np.ndarray, dst: np.ndarray, shape: tuple[int, int],
@@ -298,10 +310,7 @@ def _grown_plane(S: np.ndarray, inl: np.ndarray, src: np.ndarray, dst: np.ndarra
         return None
     if not _carries_plane(src[plane], shape):
         return None
-    sigma = ransac_px / 2
-    if not _gric(H, src, dst, sigma, HOMOGRAPHY_DOF) < _gric(S, src, dst, sigma, SIMILARITY_DOF):
-        return None  # (and where either is not finite)
-    return H
+    return H if _gric_prefers(H, HOMOGRAPHY_DOF, S, src, dst, ransac_px) else None
 
 
 def _corners(img: np.ndarray, c: BackgroundConfig, limit: int) -> np.ndarray | None:
@@ -348,14 +357,12 @@ def _hop_model(S: np.ndarray, inl: np.ndarray, src: np.ndarray, dst: np.ndarray,
     grown = _grown_plane(S, inl, src, dst, shape, c.ransac_px) if c.grow_plane else None
     if grown is not None:
         return grown
-    refit = _plane_refit(S, src[inl], dst[inl], shape)
+    p, q = src[inl], dst[inl]
+    refit = _plane_refit(S, p, q, shape)
     if refit is not S or not c.turn:
         return refit
-    h, w = shape
-    p, q = src[inl], dst[inl]
-    turned = fit_turn(S, p, q, TURN_FOCAL * w, np.array([(w - 1) / 2.0, (h - 1) / 2.0]))
-    sigma = c.ransac_px / 2
-    if turned is None or not _gric(turned, p, q, sigma, TURN_DOF) < _gric(S, p, q, sigma, SIMILARITY_DOF):
+    turned = fit_turn(S, p, q, TURN_FOCAL * shape[1], _view_centre(shape))
+    if turned is None or not _gric_prefers(turned, TURN_DOF, S, p, q, c.ransac_px):
         return S  # a strip that moves as a similarity: the turn's two more parameters would only fit its noise
     return turned
 

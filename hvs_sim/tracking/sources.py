@@ -156,8 +156,7 @@ class SceneMotionSource:
         n, V = state.frame_index - f1, self.motion.velocity
         if V is None or n > MEASURED_VELOCITY_GAP:
             return None
-        al = self.aligner
-        t1, t = (_translation(A, state.center0) for A in (A1, al.S_inv @ np.linalg.matrix_power(V, n) @ al.S @ A1))
+        t1, t = (_translation(A, state.center0) for A in (A1, self._carried(A1, V, n)))
         # slower than half the gate a frame, the estimate's own bound already leaves half of it for the view's
         # acceleration; a continuation would only widen it towards a slowly swaying person (bench track dev seed 102,
         # `partial`: a 5 px jump of a person's consensus let in along a 1.3 px/frame drift)
@@ -209,8 +208,12 @@ class SceneMotionSource:
             return None
         # nothing the gate takes: for up to `inertia` frames a guess, the estimate carried on by the scene's last
         # measured per-frame motion (the camera's inertia), before the predictor's
+        return Proposal(self._carried(state.A, V, 1), Kind.PREDICTED, Mode.PREDICT, self.name)
+
+    def _carried(self, A: np.ndarray, V: np.ndarray, frames: int) -> np.ndarray:
+        """The full-res pose A carried on `frames` frames by the scene's per-frame motion V (work px)."""
         al = self.aligner
-        return Proposal(al.S_inv @ V @ al.S @ state.A, Kind.PREDICTED, Mode.PREDICT, self.name)
+        return al.S_inv @ np.linalg.matrix_power(V, frames) @ al.S @ A
 
     def on_aligned(self, work, state):
         self.motion.reset()  # the chain starts again from the new keyframe
