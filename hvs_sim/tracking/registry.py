@@ -30,8 +30,9 @@ TRACKERS: dict[str, TrackerSpec] = {
     "hybrid_paper": TrackerSpec("hybrid", {"background": False, "colour_occlusion": False, "residual": True,
                                            "verify_residual": False, "normalise_exposure": False,
                                            "verify_reacquisition": False,
-                                           "gate_after_alignment": False},
-                                "the hybrid as published: grey raw OP_t, GRU only, residual always applied",
+                                           "gate_after_alignment": False, "perspective": False},
+                                "the hybrid as published: grey raw OP_t, GRU only, residual always applied, the "
+                                "similarity reported",
                                 "#9467bd"),
     "hybrid_seed_gate": TrackerSpec("hybrid", {"gate_after_alignment": False},
                                     "the OP_t gate at the unaligned seed only (the paper's rule)", "#dbdb8d"),
@@ -74,6 +75,10 @@ TRACKERS: dict[str, TrackerSpec] = {
     "hybrid_predictor_guess": TrackerSpec("hybrid", {"scene_inertia_frames": 0},
                                           "where the surroundings give nothing, the predictor guesses at once (the "
                                           "paper's), not the scene's last measured motion first", "#e7969c"),
+    "hybrid_similarity_report": TrackerSpec("hybrid", {"perspective": False},
+                                            "the similarity is reported as the target's pose (the paper's), not "
+                                            "corrected by the target's perspective measured on aligned frames",
+                                            "#ad494a"),
     "hybrid_estimate_gate": TrackerSpec("hybrid", {"background_gate_continues": False},
                                         "a measurement of the surroundings is judged from the estimate alone, not "
                                         "also from where the scene's measured motion carries the last measured position", "#e7ba52"),
