@@ -8,7 +8,7 @@ frame-from-template matrices: `A` at full resolution, `A_work` at working resolu
 the template and divided by ρ (half its larger side).
 
 The public API (used by the trackers and by `learn/data.py` alike):
-`set_template`, `work_image`, `to_work`/`to_full`, `coarse`, `lk`, `align`, `occlusion`,
+`set_template`, `work_image`, `to_work`/`to_full`, `coarse`, `lk`, `align`, `occlusion`, `perspective`,
 `residual_inputs`, `refine`, `residual_improves`, and the template geometry (`rho`, `N`, `c_work`).
 """
 

@@ -345,10 +345,10 @@ class HybridTracker(Tracker):
         (PERSPECTIVE_MAX_OCC), the similarity's correction to the homography that Aligner.perspective measures there,
         A⁻¹·H in the template's frame, joins the last PERSPECTIVE_HISTORY ones; the pose is reported with their
         median (of where each puts the template's corners) until the next one (the estimate a chain or the predictor
-        carries is the similarity). A view's tilt changes slowly, while an occluder the occlusion test cannot see pulls one frame's refinement: a
-        look-alike 3.4 px (photos' dev split, `camo` on ascent of seed 7), a coat arriving 0.9 px on the last frame
-        before it covered the target, carried through its whole stay. `lost` and a seed empty the history (the
-        identity: the template's own view)."""
+        carries is the similarity). A view's tilt changes slowly, while an occluder the occlusion test cannot see
+        pulls one frame's refinement: a look-alike 3.4 px (photos' dev split, `camo` on ascent of seed 7), a coat
+        arriving 0.9 px on the last frame before it covered the target, carried through its whole stay. `lost` and a
+        seed empty the history (the identity: the template's own view)."""
         if not self._perspective_on:
             return est
         if est.mode == Mode.LOST:

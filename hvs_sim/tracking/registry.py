@@ -81,7 +81,8 @@ TRACKERS: dict[str, TrackerSpec] = {
                                             "#ad494a"),
     "hybrid_estimate_gate": TrackerSpec("hybrid", {"background_gate_continues": False},
                                         "a measurement of the surroundings is judged from the estimate alone, not "
-                                        "also from where the scene's measured motion carries the last measured position", "#e7ba52"),
+                                        "also from where the scene's measured motion carries the last measured "
+                                        "position", "#e7ba52"),
     "hybrid_no_surroundings_veto": TrackerSpec("hybrid", {"surroundings_veto_frames": 0},
                                                "a far re-acquisition the surroundings contradict is not held back",
                                                "#b5cf6b"),
