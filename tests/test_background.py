@@ -383,3 +383,57 @@ def test_a_view_with_nothing_to_measure_is_carried_on_by_the_cameras_inertia(fra
         assert error <= 1.0, error
     else:
         assert error > 3.0, error
+
+
+def blocky_coat_over(grey: np.ndarray, x0: int, offset: int) -> np.ndarray:
+    """`grey` with a coat of random 8 px grey blocks (no period for LK to alias) over x ≥ x0, its pattern moved
+    `offset` px to the right."""
+    h, w = grey.shape
+    blocks = np.kron(np.random.default_rng(3).integers(20, 235, (h // 8 + 1, w // 8 + 3)), np.ones((8, 8)))
+    out = grey.copy()
+    out[:, x0:] = blocks[:h, 16 - offset:16 - offset + w - x0]
+    return out
+
+
+@pytest.mark.parametrize("runner_up", [True, False])
+def test_a_coat_sweeping_in_leaves_the_wall_as_the_runner_up(runner_up, flag_frame):
+    """A coat sweeping in 8 px a frame holds most of the view's corners; the wall, a strip beside it, moves by d. The
+    caller's gate refuses the coat's consensus; the consensus among the points the coat did not hold is the wall's
+    (BackgroundConfig.runner_up), and nearer the scene's expected motion: it is taken. Without, nothing is measured."""
+    grey = cv2.resize(cv2.cvtColor(flag_frame, cv2.COLOR_RGB2GRAY), None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
+    d = np.array([0.6, -0.4])
+    bg = BackgroundMotion(BackgroundConfig(runner_up=runner_up))
+    bg.start(blocky_coat_over(grey, 80, 0))
+    bg.velocity = similarity(*d, 0.0, 1.0)  # the scene's last per-frame motion (set by the hybrid on aligned frames)
+    centre = np.array([[160.0, 120.0]])
+    offered = []
+
+    def gate(M):  # the hybrid's gate: no more than 3 px a frame from where the scene was expected
+        offered.append(apply(M, centre)[0] - centre[0])
+        return bool(np.linalg.norm(offered[-1] - d) < 3.0)
+
+    M = bg.update(blocky_coat_over(shift(grey, *d), 80, 8), accept=gate)
+    assert np.abs(offered[0] - [8.0, 0.0]).max() < 0.2  # the coat's consensus comes first
+    if runner_up:
+        assert M is not None and len(offered) == 2
+        assert np.abs(apply(M, np.array([[40.0, 120.0]]))[0] - [40.0, 120.0] - d).max() < 0.1
+    else:
+        assert M is None and len(offered) == 1
+
+
+def test_a_short_hop_does_not_replace_the_scenes_motion_a_longer_one_measured():
+    """The scene's per-frame motion measured over a 5-frame hop is kept against a 1-frame hop's within `hop` frames
+    (a coat and the wall that differ by less than RANSAC's tolerance share a 1-frame consensus), and replaced after."""
+    bg = BackgroundMotion()
+    bg.frame = 10
+    bg._measured_velocity(similarity(5.0, -2.0, 0.0, 1.0), 5)
+    assert np.allclose(bg.velocity[:2, 2], [1.0, -0.4])
+    bg.frame = 11
+    bg._measured_velocity(similarity(0.2, 0.0, 0.0, 1.0), 1)  # shorter, within the hop: kept
+    assert np.allclose(bg.velocity[:2, 2], [1.0, -0.4])
+    bg.frame = 12
+    bg._measured_velocity(similarity(2.6, -1.0, 0.0, 1.0), 2)
+    assert np.allclose(bg.velocity[:2, 2], [1.0, -0.4])
+    bg.frame = 15
+    bg._measured_velocity(similarity(0.2, 0.0, 0.0, 1.0), 1)  # `hop` frames later: replaced
+    assert np.allclose(bg.velocity[:2, 2], [0.2, 0.0])

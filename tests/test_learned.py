@@ -159,3 +159,27 @@ def test_training_commands_run_end_to_end_at_a_tiny_setting(tmp_path):
     train_gru(GRUTrainConfig(handheld_tracks=1, arm_tracks=1, track_length=40, horizon=5, epochs=1), tmp_path, progress=False)
     b = torch.load(tmp_path / "gru.pt")
     assert all(torch.equal(a[k], b[k]) for k in a)
+
+
+def test_the_predictor_continues_from_frames_another_source_guessed():
+    """Frames the scene's inertia guessed join the predictor's rollout: its next prediction is one frame past the last
+    estimate, not one past its last confident translation (which threw the estimate back by the guessed frames)."""
+    from types import SimpleNamespace
+
+    from hvs_sim.tracking.predictors import ConstantVelocityPredictor
+    from hvs_sim.tracking.sources import PredictorSource
+
+    def at(x: float) -> SimpleNamespace:
+        return SimpleNamespace(A=np.array([[1.0, 0.0, x], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]),
+                               center0=np.array([50.0, 40.0]), predict_run=0)
+
+    source = PredictorSource(ConstantVelocityPredictor(), max_frames=30)
+    source.reset(at(0.0))
+    for x in (2.0, 4.0, 6.0):  # measured: 2 px a frame
+        source.on_measured(None, at(x), None)
+    for x in (8.0, 10.0, 12.0):  # guessed by another source (the scene's inertia)
+        source.on_predicted(None, at(x))
+    proposal = source.propose(None, at(12.0))
+    assert proposal.A[0, 2] == pytest.approx(14.0)
+    source.on_predicted(None, at(14.0))  # its own guess is not added twice
+    assert source.propose(None, at(14.0)).A[0, 2] == pytest.approx(16.0)

@@ -35,6 +35,11 @@ class MotionPredictor:
         self.confident.append(np.asarray(t, float).copy())
         self.rollout = []
 
+    def carry(self, t: np.ndarray) -> None:
+        """A frame another source guessed (not confident): it continues the rollout, as this predictor's own guess
+        would have, so that the next prediction is for the frame after it."""
+        self.rollout.append(np.asarray(t, float).copy())
+
     def history(self) -> np.ndarray:
         return np.array((list(self.confident) + self.rollout)[-self.k:])
 
