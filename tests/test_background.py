@@ -420,20 +420,3 @@ def test_a_coat_sweeping_in_leaves_the_wall_as_the_runner_up(runner_up, flag_fra
     else:
         assert M is None and len(offered) == 1
 
-
-def test_a_short_hop_does_not_replace_the_scenes_motion_a_longer_one_measured():
-    """The scene's per-frame motion measured over a 5-frame hop is kept against a 1-frame hop's within `hop` frames
-    (a coat and the wall that differ by less than RANSAC's tolerance share a 1-frame consensus), and replaced after."""
-    bg = BackgroundMotion()
-    bg.frame = 10
-    bg._measured_velocity(similarity(5.0, -2.0, 0.0, 1.0), 5)
-    assert np.allclose(bg.velocity[:2, 2], [1.0, -0.4])
-    bg.frame = 11
-    bg._measured_velocity(similarity(0.2, 0.0, 0.0, 1.0), 1)  # shorter, within the hop: kept
-    assert np.allclose(bg.velocity[:2, 2], [1.0, -0.4])
-    bg.frame = 12
-    bg._measured_velocity(similarity(2.6, -1.0, 0.0, 1.0), 2)
-    assert np.allclose(bg.velocity[:2, 2], [1.0, -0.4])
-    bg.frame = 15
-    bg._measured_velocity(similarity(0.2, 0.0, 0.0, 1.0), 1)  # `hop` frames later: replaced
-    assert np.allclose(bg.velocity[:2, 2], [0.2, 0.0])

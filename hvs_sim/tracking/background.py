@@ -413,8 +413,6 @@ class BackgroundMotion:
         self.covered = False  # the hidden target is covered (COVERED_OP): set by the caller for each frame
         if forget_motion or not hasattr(self, "velocity"):
             self.velocity: np.ndarray | None = None  # the scene's last per-frame motion (similarity)
-        # the frame and hop length `velocity` was measured at (update): a shorter hop does not replace a longer one's
-        self.velocity_measured = (self.frame, 0)
 
     def start(self, key: np.ndarray) -> None:
         self.reset()
@@ -483,19 +481,9 @@ class BackgroundMotion:
                 if accept is not None and not accept(M):
                     continue
                 self.chain.append((self.frame, grey, M))
-                self._measured_velocity(S, self.frame - k)
+                self.velocity = _per_frame(S, self.frame - k)
                 return M
         return None
-
-    def _measured_velocity(self, S: np.ndarray, frames: int) -> None:
-        """The scene's per-frame motion from a hop's similarity S over `frames` frames, unless a longer hop measured it
-        within the last `hop` frames: a coat and the wall that differ by less than RANSAC's tolerance over one frame
-        share a 1-frame hop's consensus, and its motion, taken to the 5-frame hop's power as the expected motion, then
-        favoured the coat's consensus on every later hop (photos' dev split, `long`: the chain followed the coat 8 px)."""
-        at, span = self.velocity_measured
-        if frames >= span or self.frame - at >= self.config.hop:
-            self.velocity = _per_frame(S, frames)
-            self.velocity_measured = (self.frame, frames)
 
     def peek(self, key: np.ndarray, grey: np.ndarray, hidden: np.ndarray | None = None) -> np.ndarray | None:
         """What `update` would answer for `grey` from the chain's last frame (`key` where the chain has not started),
