@@ -16,6 +16,7 @@ from hvs_sim.tracking.background import (
     _plane_refit,
 )
 from hvs_sim.tracking.frames import roi_center
+from hvs_sim.tracking.hybrid_config import PULL_CHECK_OCC
 from hvs_sim.tracking.occlusion import occlusion_fraction
 from hvs_sim.tracking.warp import apply, fit_similarity, fit_turn, similarity
 
@@ -420,3 +421,33 @@ def test_a_coat_sweeping_in_leaves_the_wall_as_the_runner_up(runner_up, flag_fra
     else:
         assert M is None and len(offered) == 1
 
+
+
+@pytest.mark.parametrize("check", [True, False])
+def test_an_alignment_an_occluder_pulled_is_not_taken(check, flag_frame, monkeypatch):
+    """A dark coat's edge covers a quarter of the target on the frame after an alignment. An alignment 2.5 px from where
+    the surroundings' motion puts the target, and seeing it less well (OP_t) there, was pulled by the occluder
+    (HybridConfig.pull_check); within PULL_CHECK_PX it is taken. Where the surroundings are the wrong ones (their pose
+    sees the target less well than the alignment's), the alignment is taken."""
+    path = random_walk(7, 12)
+    tr = tracking_on(flag_frame, path, pull_check=check)
+    al, st = tr.aligner, tr.state
+    x, y, w, h = ROI
+    dx, dy = path[11]
+    frame = shift(flag_frame, dx, dy)
+    frame[int(y + dy):int(y + dy + h), int(x + dx):int(x + dx + w // 4)] = 40
+    work = al.work_image(frame)
+
+    def moved(A: np.ndarray, d) -> np.ndarray:
+        return similarity(*d, 0.0, 1.0) @ A
+
+    def seen(A: np.ndarray) -> float:  # OP_t at a full-res pose, as the hybrid measures it
+        return tr._occlusion_at(frame, al.to_work(A), al.occlusion(work, al.to_work(A)))
+
+    true = moved(st.A, path[11] - path[10])
+    pulled, near = moved(true, (2.5, 0.0)), moved(true, (0.5, 0.0))
+    assert seen(true) > PULL_CHECK_OCC and seen(pulled) > seen(true)
+    assert tr._pulled(frame, pulled, seen(pulled), work) is check
+    assert not tr._pulled(frame, near, seen(near), work)
+    monkeypatch.setattr(tr.scene_motion, "measure", lambda *args, **kwargs: pulled)  # the surroundings are wrong
+    assert not tr._pulled(frame, true, seen(true), work)

@@ -70,6 +70,12 @@ APPEARANCE_RECORD_OCC = 0.1  # an alignment with OP_t up to this is confident en
 # refinement has no robust weights, and a hand's defocused edge over 18 % of the target pulled it 2.7 px, which the
 # report then carried through the whole occlusion (photos' dev split, `hand` on china of seed 7)
 PERSPECTIVE_MAX_OCC = 0.1
+# an alignment is checked against the surroundings (HybridConfig.pull_check) where OP_t there is over this (the target
+# partly covered; a clear hand-held view reads up to ~0.15 from blur and noise, and checking from 0.1 peeked at the
+# surroundings on a fifth of the photos' dev frames, 4.35 -> 5.28x the ECC reference's time), and taken for pulled by
+# the occluder where it lies over PULL_CHECK_PX from the surroundings' pose
+PULL_CHECK_OCC = 0.15
+PULL_CHECK_PX = 1.0
 # ... and the pose is reported with the median of the last this many (HybridTracker._reported): on a clear sequence
 # whose tilted view biased the similarity by up to 3.8 px (china, seed 7) the correction moved by at most 0.9 px
 # from one measurement to the next, while a look-alike pulled one frame's 3.4 px
@@ -119,6 +125,10 @@ class HybridConfig:
     # carry stays the similarity. False: the similarity is reported, as in the paper. Moot with warp="homography",
     # whose alignment is the plane's own
     perspective: bool = True
+    # an alignment of a partly covered static target that the surroundings' motion since the frame before contradicts
+    # (PULL_CHECK_*) and that sees the target less well (OP_t) than their pose was pulled by the occluder: the frame is
+    # not aligned, and the surroundings carry the estimate (HybridTracker._pulled). False: every alignment is taken
+    pull_check: bool = True
     reanchor: bool = True  # after predictor-only frames, measure against aligned keyframes (KeyframeAnchor)
     # verified re-acquisition (a change to the paper): an alignment further than `reacquire_px` (plus
     # `background_gate_px` per unmeasured frame, plus `reacquire_drift_px` per frame since the last
@@ -175,7 +185,7 @@ class HybridConfig:
 
     def __post_init__(self):
         check_flags(self, ("continuity", "colour_occlusion", "gate_after_alignment", "background", "reanchor",
-                           "verify_reacquisition", "background_gate_continues", "perspective"))
+                           "verify_reacquisition", "background_gate_continues", "perspective", "pull_check"))
         if not 0 < self.occlusion_gate <= 1:
             raise ConfigError(f"occlusion_gate must be in (0, 1], got {self.occlusion_gate}")
         if self.predictor not in PREDICTORS:

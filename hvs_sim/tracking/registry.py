@@ -79,6 +79,12 @@ TRACKERS: dict[str, TrackerSpec] = {
                                             "the similarity is reported as the target's pose (the paper's), not "
                                             "corrected by the target's perspective measured on aligned frames",
                                             "#ad494a"),
+    "hybrid_unchecked_alignment": TrackerSpec("hybrid", {"pull_check": False},
+                                              "every alignment of a partly covered target is taken, not checked "
+                                              "against the surroundings' motion", "#6b6ecf"),
+    "hybrid_first_consensus": TrackerSpec("hybrid", {"background_config": {"runner_up": False}},
+                                          "a hop whose consensus the gate refuses offers no other, not the consensus "
+                                          "among the points the first did not hold", "#9c9ede"),
     "hybrid_estimate_gate": TrackerSpec("hybrid", {"background_gate_continues": False},
                                         "a measurement of the surroundings is judged from the estimate alone, not "
                                         "also from where the scene's measured motion carries the last measured "
