@@ -422,7 +422,6 @@ def test_a_coat_sweeping_in_leaves_the_wall_as_the_runner_up(runner_up, flag_fra
         assert M is None and len(offered) == 1
 
 
-
 @pytest.mark.parametrize("check", [True, False])
 def test_an_alignment_an_occluder_pulled_is_not_taken(check, flag_frame, monkeypatch):
     """A dark coat's edge covers a quarter of the target on the frame after an alignment. An alignment 2.5 px from where

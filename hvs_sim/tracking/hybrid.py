@@ -194,6 +194,11 @@ class HybridTracker(Tracker):
         patch, inside = aligned_patch(near, translate(A_seed, -offset), al.t_origin, (al.th, al.tw))
         return self.colour_reference(patch, inside)
 
+    def _occlusion_measured(self, frame: np.ndarray, work: np.ndarray, A_work: np.ndarray) -> float:
+        """OP_t at a work warp where nothing was measured yet: in grey on `work` unless in colour (_occlusion_at)."""
+        grey = None if self.colour_reference is not None else self.aligner.occlusion(work, A_work)
+        return self._occlusion_at(frame, A_work, grey)
+
     def _verified(self, A: np.ndarray, m, work: np.ndarray | None = None) -> bool:
         """Whether an alignment may move the estimate there (HybridConfig.verify_reacquisition). A static target's
         far jump from where the surroundings put it must be unique and seen on several frames; a moving target's
@@ -308,18 +313,22 @@ class HybridTracker(Tracker):
         LK still moved 0.8-1.7 px a frame towards a coat's edge over 2-14 % of the target, and the chain carried that
         through the coat's 3.5 s stay (photos' dev split, `long` ascent of seed 2027: 2.7 px at OP_t 0.18).
         OP_t decides because either can be wrong: the surroundings' hop, not gated here, can be the coat's (13 px)."""
-        st, al = self.state, self.aligner
         if not (self.hconfig.pull_check and self.target_motion == "static" and occ > PULL_CHECK_OCC
-                and st.since_aligned == 0 and self.scene_motion is not None):
+                and self.state.since_aligned == 0 and self.scene_motion is not None):
             return False
-        B = self.scene_motion.measure(work, st, peek=True)
-        if B is None or np.linalg.norm(matrix_to_pose(A, st.center0)[:2] - matrix_to_pose(B, st.center0)[:2]) \
-                <= PULL_CHECK_PX:
+        found = self._surroundings_miss(A, work)
+        if found is None or found[1] <= PULL_CHECK_PX:
             return False
-        B_work = al.to_work(B)
-        occ_B = self._occlusion_at(frame, B_work, None if self.colour_reference is not None
-                                   else al.occlusion(work, B_work))
-        return bool(occ_B < occ)
+        return bool(self._occlusion_measured(frame, work, self.aligner.to_work(found[0])) < occ)
+
+    def _surroundings_miss(self, A: np.ndarray, work: np.ndarray) -> tuple[np.ndarray, float] | None:
+        """The pose the surroundings' motion since the last measured frame gives (SceneMotionSource.measure, peeking),
+        and how far A's centre is from its centre; None where they cannot be measured."""
+        B = self.scene_motion.measure(work, self.state, peek=True)
+        if B is None:
+            return None
+        center0 = self.state.center0
+        return B, float(np.linalg.norm(matrix_to_pose(A, center0)[:2] - matrix_to_pose(B, center0)[:2]))
 
     def _surroundings_agree(self, A: np.ndarray, work: np.ndarray | None) -> bool:
         """Whether the surroundings' motion since the last measured frame puts the target within reacquire_px of A
@@ -327,10 +336,8 @@ class HybridTracker(Tracker):
         st = self.state
         if work is None or self.scene_motion is None or not (st.scene_held and st.drift_run <= SURROUNDINGS_GUESSES):
             return False  # the veto's condition: the estimate is the surroundings' (a seed's or a long guess's is not)
-        B = self.scene_motion.measure(work, st, peek=True)
-        center0 = st.center0
-        return B is not None and bool(np.linalg.norm(matrix_to_pose(A, center0)[:2] - matrix_to_pose(B, center0)[:2])
-                                      <= self.hconfig.reacquire_px)
+        found = self._surroundings_miss(A, work)
+        return found is not None and found[1] <= self.hconfig.reacquire_px
 
     def _judge_motion(self, work: np.ndarray, A: np.ndarray) -> None:
         """`auto`: add this aligned frame's evidence (where the aligned target is, against where the surroundings'
@@ -418,8 +425,7 @@ class HybridTracker(Tracker):
             A_new = al.align(work, A_seed, al.to_work(st.A), frames=st.drift_run + 1, aligned=last).A_work
             occ_aligned = occ
             if A_new is not None and occ >= gate:  # gated again where the target was aligned (gate_after_alignment)
-                grey = None if self.colour_reference is not None else al.occlusion(work, A_new)
-                occ_aligned = self._occlusion_at(frame, A_new, grey)
+                occ_aligned = self._occlusion_measured(frame, work, A_new)
                 if occ_aligned >= gate:
                     A_new = None
             if A_new is not None and self._pulled(frame, al.to_full(A_new), occ_aligned, work):
@@ -439,9 +445,7 @@ class HybridTracker(Tracker):
         if is_current:  # OP_t at the estimate: how much of the target the occluder covers (background.COVERED_OP)
             st.hidden_share = occ
         else:
-            A_est = al.to_work(st.A)
-            st.hidden_share = self._occlusion_at(frame, A_est, None if self.colour_reference is not None
-                                                 else al.occlusion(work, A_est))
+            st.hidden_share = self._occlusion_measured(frame, work, al.to_work(st.A))
         est = self._predict(work, occ, m, cut)
         self.stage_ms["sources"] = 1e3 * (time.perf_counter() - t4)
         return est
