@@ -8,6 +8,7 @@ from hvs_sim.errors import HvsError
 from hvs_sim.tracking import make_tracker
 from hvs_sim.tracking.anchor import KeyframeAnchor
 from hvs_sim.tracking.background import (
+    CLEAR_OP,
     BackgroundConfig,
     BackgroundMotion,
     _consensus,
@@ -367,6 +368,25 @@ def test_a_sweeping_view_is_continued_by_the_scenes_own_motion(flag_frame):
     assert not sm._passes(at(-3.5, -3.0), st)
 
 
+@pytest.mark.parametrize("sway", [True, False])
+def test_a_view_whose_motion_changes_fast_widens_the_gate(sway, flag_frame):
+    """A view circling 20 px a frame, its per-frame motion turning by ~6 px from one frame to the next (hand-held at
+    10 fps), while the target is covered for 5 frames. The gate alone refuses the surroundings' correct measurements, which miss
+    the continuation of the last one by that much, and the camera's inertia carries the estimate off; widened by how
+    much the per-frame motion has been changing (HybridConfig.background_gate_sway), it takes them."""
+    n, step = 16, 0.3  # rad a frame: a 67 px circle at 20 px a frame
+    k = np.arange(n)
+    path = 67.0 * np.stack([np.sin(step * k), 1.0 - np.cos(step * k)], axis=1)
+    tr = tracking_on(flag_frame, path, background_gate_sway=sway)
+    turn = np.linalg.norm((path[11] - path[10]) - (path[10] - path[9]))
+    assert turn > 1.2 * tr.hconfig.background_gate_px
+    errors = [hidden_target_error(tr, flag_frame, path[k]) for k in range(11, n)]
+    if sway:
+        assert max(errors) <= 1.0, np.round(errors, 2)
+    else:
+        assert max(errors) > 3.0, np.round(errors, 2)
+
+
 @pytest.mark.parametrize("frames", [5, 0])
 def test_a_view_with_nothing_to_measure_is_carried_on_by_the_cameras_inertia(frames, flag_frame):
     """The view pans 4 px a frame; then a person fills the whole of it for three frames. The surroundings give
@@ -450,3 +470,34 @@ def test_an_alignment_an_occluder_pulled_is_not_taken(check, flag_frame, monkeyp
     assert not tr._pulled(frame, near, seen(near), work)
     monkeypatch.setattr(tr.scene_motion, "measure", lambda *args, **kwargs: pulled)  # the surroundings are wrong
     assert not tr._pulled(frame, true, seen(true), work)
+
+
+@pytest.mark.parametrize("hidden_share", [0.0, 0.6])
+def test_a_target_in_view_is_not_taken_for_the_occluder(hidden_share, flag_frame):
+    """A coat sweeping in 8 px a frame beside the target holds more corners than the wall, whose consensus holds the
+    target's own corners. While the target reads as in view (OP_t at most CLEAR_OP) those corners are its own, and the
+    wall is measured; on a target read as partly covered they are the occluder prior's evidence against the wall."""
+    path = random_walk(5, 12)
+    tr = tracking_on(flag_frame, path)
+    al, st = tr.aligner, tr.state
+    grey = cv2.resize(cv2.cvtColor(flag_frame, cv2.COLOR_RGB2GRAY), None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
+    before, now = (coat_beside(flag_frame, grey, path[k], coat) for k, coat in ((10, 0), (11, 8)))
+    tr.scene_motion.key = (al.work_image(before), st.A)  # the chain's start: the last aligned frame, coat and all
+    st.hidden_share = hidden_share
+    moved = tr.scene_motion.measure(al.work_image(now), st, peek=True)
+    centre = roi_center(ROI)[None]
+    step = apply(moved, centre)[0] - apply(st.A, centre)[0]
+    d = path[11] - path[10]
+    if hidden_share <= CLEAR_OP:
+        assert np.abs(step - d).max() < 0.3, (step, d)
+    else:
+        assert np.abs(step - d).max() > 3.0, (step, d)  # the coat's motion
+
+
+def coat_beside(img: np.ndarray, grey: np.ndarray, offset, coat_offset: int) -> np.ndarray:
+    """`img` moved by `offset`, with the blocky coat (blocky_coat_over, its pattern moved `coat_offset` px) over the
+    right half of the view, beside the target (ROI)."""
+    coat = cv2.resize(blocky_coat_over(grey, W // 4, coat_offset), (W, H), interpolation=cv2.INTER_NEAREST)
+    out = shift(img, *offset)
+    out[:, W // 2:] = coat[:, W // 2:, None]
+    return out

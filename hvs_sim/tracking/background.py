@@ -133,6 +133,9 @@ OCCLUDER_SPREAD = 0.5  # ... spread over half the corners' extent both ways (a s
 # target: 5-9 % of its corners there, under OCCLUDER_SHARE), and the scene's motion is the consensus among the
 # other points, or none
 COVERED_OP = 0.8
+# ... and a target with OP_t at most CLEAR_OP at the estimate is in view (a clear hand-held view reads up to ~0.15 from
+# blur and noise): the corners on its box are its own and move with the scene, so the box says nothing of the occluder
+CLEAR_OP = 0.15
 COVERED_SHRINK = 0.8
 COVERED_MIN_POINTS = 3
 OCCLUDER_MISS_PX = 2.0  # ... and moving no more than this further from the scene's expected motion than the first

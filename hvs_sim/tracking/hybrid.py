@@ -95,19 +95,10 @@ from hvs_sim.tracking.sources import (
     MotionSource,
     PredictorSource,
     SceneMotionSource,
+    thumbnail,
 )
 from hvs_sim.tracking.trackability import check_trackable
 from hvs_sim.tracking.warp import apply, matrix_to_pose, translate
-
-
-def _thumb(work: np.ndarray) -> np.ndarray | None:
-    """A small zero-mean, unit-norm copy of the working image: two frames of one shot correlate on it, a cut does not.
-    None for a frame without content to compare (a body or a hand filling the view, the lens covered): that is an
-    occlusion, not a cut."""
-    t = cv2.resize(np.asarray(work, np.float32), CUT_THUMB, interpolation=cv2.INTER_AREA).ravel()
-    t = t - t.mean()
-    norm = float(np.linalg.norm(t))
-    return None if norm < CUT_MIN_CONTRAST * np.sqrt(t.size) else t / norm
 
 
 class HybridTracker(Tracker):
@@ -130,6 +121,7 @@ class HybridTracker(Tracker):
         if config.background:
             self.scene_motion = SceneMotionSource(self.aligner, config.background_config, config.background_gate_px,
                                                   continues=config.background_gate_continues,
+                                                  sway=config.background_gate_sway,
                                                   inertia=config.scene_inertia_frames)
             self.scene_sources.append(self.scene_motion)
         self.predictor_source = PredictorSource(predictor, config.max_predict_frames)
@@ -164,7 +156,7 @@ class HybridTracker(Tracker):
             self.colour_reference = OcclusionReference(al.template_patch(al.work_colour(frame)), self.config.tau_pix,
                                                        self.config.normalise_exposure)
         self.state = HybridState(center0=self.center0, corners0=self.corners0, A=np.eye(3), keyframe=(work, np.eye(3)),
-                                 thumb=_thumb(work))
+                                 thumb=thumbnail(work))
         c = self.hconfig
         self.target_motion = None if c.target_motion == "auto" else c.target_motion
         self._evidence, self._evidence_frames, self._aligned_frames = np.zeros(2), 0, 0
@@ -400,13 +392,15 @@ class HybridTracker(Tracker):
         st.frame_index += 1
         t0 = time.perf_counter()
         work = al.work_image(frame)
-        cut = st.saw(_thumb(work)) < self.hconfig.cut_ncc  # nothing of the last frame is in this one
+        cut = st.saw(thumbnail(work)) < self.hconfig.cut_ncc  # nothing of the last frame is in this one
         if cut and self.target_motion is None:  # `auto`'s evidence compares with the surroundings, which a cut ends
             self._evidence, self._evidence_frames = np.zeros(2), 0
         t1 = time.perf_counter()
         m, A_seed, occ, is_current = al.coarse(work, st.A)
         t2 = time.perf_counter()
         occ = self._occlusion_at(frame, A_seed, occ)
+        if is_current:  # OP_t at the estimate: how much of the target is covered, for the checks of an alignment too
+            st.hidden_share = occ
         t3 = time.perf_counter()
         self.stage_ms.update(prepare=1e3 * (t1 - t0), coarse=1e3 * (t2 - t1), occlusion=1e3 * (t3 - t2))
         if m.score <= 0:  # blank or uniform frame

@@ -113,6 +113,11 @@ class HybridConfig:
     # hand-held view sweeping 5-7 px a frame was otherwise refused on every frame and the estimate fell behind (the
     # photos' dev split, `camo`: 100-225 px off under the look-alike person); False: from the estimate alone
     background_gate_continues: bool = True
+    # ... and that continuation's bound widens by how much the target's per-frame motion changed over the last
+    # measurements beyond the half of the gate left for it (SceneMotionSource._passes): hand-held at 10 fps the view's
+    # per-frame motion changed by 4-6 px from one frame to the next, and the gate refused every correct measurement
+    # while the camera's inertia carried the estimate away (docs/results.md, a view 3x faster); False: a fixed gate
+    background_gate_sway: bool = True
     # frames for which, while the surroundings give nothing the gate takes, the estimate is carried on by the scene's
     # last measured per-frame motion (the camera's inertia) before the predictor guesses: as a coat swept in, the GRU
     # held the estimate still while the view moved 3-6 px a frame, and the chain restarted from it 27 px off (photos'
@@ -185,7 +190,8 @@ class HybridConfig:
 
     def __post_init__(self):
         check_flags(self, ("continuity", "colour_occlusion", "gate_after_alignment", "background", "reanchor",
-                           "verify_reacquisition", "background_gate_continues", "perspective", "pull_check"))
+                           "verify_reacquisition", "background_gate_continues", "background_gate_sway", "perspective",
+                           "pull_check"))
         if not 0 < self.occlusion_gate <= 1:
             raise ConfigError(f"occlusion_gate must be in (0, 1], got {self.occlusion_gate}")
         if self.predictor not in PREDICTORS:

@@ -85,6 +85,9 @@ TRACKERS: dict[str, TrackerSpec] = {
     "hybrid_first_consensus": TrackerSpec("hybrid", {"background_config": {"runner_up": False}},
                                           "a hop whose consensus the gate refuses offers no other, not the consensus "
                                           "among the points the first did not hold", "#9c9ede"),
+    "hybrid_steady_gate": TrackerSpec("hybrid", {"background_gate_sway": False},
+                                      "the surroundings' gate is the same for every view, not widened by how much "
+                                      "the view's per-frame motion has been changing", "#bd9e39"),
     "hybrid_estimate_gate": TrackerSpec("hybrid", {"background_gate_continues": False},
                                         "a measurement of the surroundings is judged from the estimate alone, not "
                                         "also from where the scene's measured motion carries the last measured "

@@ -15,14 +15,17 @@ tell them what happened through `on_aligned`, `on_measured` and `on_predicted`.
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
+import cv2
 import numpy as np
 
 from hvs_sim.tracking.anchor import KeyframeAnchor
-from hvs_sim.tracking.background import COVERED_OP, BackgroundConfig, BackgroundMotion
+from hvs_sim.tracking.background import CLEAR_OP, COVERED_OP, BackgroundConfig, BackgroundMotion
 from hvs_sim.tracking.base import Mode
+from hvs_sim.tracking.hybrid_config import CUT_MIN_CONTRAST, CUT_THUMB
 from hvs_sim.tracking.predictors import MotionPredictor
 from hvs_sim.tracking.warp import apply, matrix_to_pose, translate
 
@@ -69,6 +72,9 @@ ANCHOR_DRIFT_PX = 0.5  # px a frame the scene's chain may have drifted since the
 # view's speed changes within a few frames) ...
 MEASURED_VELOCITY_GAP = 3
 CONTINUE_MIN_SPEED = 0.5  # ... and from half the gate a frame (a fraction of background_gate_px)
+# ... and its bound widens by the largest change of the target's per-frame motion over this many of the last
+# consecutive alignments, beyond the half of the gate left for it (HybridConfig.background_gate_sway, on_aligned)
+SWAY_MEASUREMENTS = 5
 
 
 class KeyframeAnchorSource:
@@ -131,8 +137,9 @@ class SceneMotionSource:
     name = "scene_motion"
 
     def __init__(self, aligner: Aligner, config: BackgroundConfig, gate_px: float, continues: bool = True,
-                 inertia: int = 0):
+                 inertia: int = 0, sway: bool = True):
         self.aligner, self.gate_px, self.continues, self.inertia = aligner, gate_px, continues, inertia
+        self.widens = sway  # HybridConfig.background_gate_sway
         self.patience = config.hop
         self.motion = BackgroundMotion(config)
 
@@ -142,6 +149,8 @@ class SceneMotionSource:
         self.key = state.keyframe  # (work image, full-res warp) where the chain starts
         # the target's last measured pose (frame index, full-res warp): aligned, re-anchored or moved by the
         # surroundings, never predicted; the scene's motion continues it (_passes)
+        self._step: np.ndarray | None = None  # the target's motion between the last two alignments (on_aligned)
+        self._sways: deque[float] = deque(maxlen=SWAY_MEASUREMENTS)
         self.last_measured: tuple[int, np.ndarray] = (state.frame_index, state.A.copy())
 
     def _measured_at(self, state) -> None:
@@ -172,7 +181,8 @@ class SceneMotionSource:
         frame, the chain left as it was (BackgroundMotion.peek), for a check on a frame that may still be aligned
         (HybridTracker._verified)."""
         key_work, A_key = self.key
-        hidden = apply(self.aligner.S @ state.A, state.corners0)
+        # a target in view (CLEAR_OP) is no occluder's: its box's corners are its own and move with the scene
+        hidden = apply(self.aligner.S @ state.A, state.corners0) if state.hidden_share > CLEAR_OP else None
         self.motion.covered = state.hidden_share >= COVERED_OP
         al = self.aligner
 
@@ -197,7 +207,13 @@ class SceneMotionSource:
         if np.linalg.norm(t - _translation(state.A, state.center0)) <= bound:
             return True
         continued = self._continued(state) if self.continues else None
-        return continued is not None and bool(np.linalg.norm(t - continued) <= bound)
+        if continued is None:
+            return False
+        frames = state.frame_index - self.last_measured[0]
+        # the gate leaves half of itself for the view's acceleration (CONTINUE_MIN_SPEED); a sway beyond that widens it
+        sway = max(self._sways, default=0.0) if self.widens else 0.0
+        excess = max(sway - CONTINUE_MIN_SPEED * self.gate_px, 0.0)
+        return bool(np.linalg.norm(t - continued) <= bound + excess * max(frames, 1))
 
     def propose(self, work, state):
         A = self.measure(work, state, gated=True)
@@ -223,6 +239,15 @@ class SceneMotionSource:
         A_work = self.aligner.to_work(state.A)
         if self.last_aligned is not None and self.last_aligned[0] == state.frame_index - 1:
             self.motion.velocity = A_work @ np.linalg.inv(self.last_aligned[1])
+            # how much the target's per-frame motion changed between consecutive alignments (px): the continuation's
+            # own error a frame (_passes). A hand-held view's sway changed it by 1-2 px at 30 fps (the photos' dev
+            # split), by 4-6 px at 10 fps. Not from the surroundings' hops: under a coat their noise read 2-4 px
+            step = _translation(state.A, state.center0) - _translation(self.last_measured[1], state.center0)
+            if self._step is not None:
+                self._sways.append(float(np.linalg.norm(step - self._step)))
+            self._step = step
+        else:
+            self._step = None
         self.last_aligned = (state.frame_index, A_work)
         self._measured_at(state)
 
@@ -275,6 +300,16 @@ class PredictorSource:
         self._rolled = False
 
 
+def thumbnail(work: np.ndarray) -> np.ndarray | None:
+    """A small zero-mean, unit-norm copy of the working image: two frames of one shot correlate on it, a cut does not.
+    None for a frame without content to compare (a body or a hand filling the view, the lens covered): that is an
+    occlusion, not a cut."""
+    t = cv2.resize(np.asarray(work, np.float32), CUT_THUMB, interpolation=cv2.INTER_AREA).ravel()
+    t = t - t.mean()
+    norm = float(np.linalg.norm(t))
+    return None if norm < CUT_MIN_CONTRAST * np.sqrt(t.size) else t / norm
+
+
 @dataclass
 class HybridState:
     """What changes from frame to frame. Changed only by the four transitions below, each of which
@@ -297,7 +332,9 @@ class HybridState:
     jump_frames: int = 0
     thumb: np.ndarray | None = None  # the last frame's thumbnail (HybridTracker's cut test)
     after_cut: bool = False  # a scene cut was seen and the target not aligned since: lost
-    hidden_share: float = 0.0  # OP_t at the estimate on this frame, when it is not aligned (background.COVERED_OP)
+    # OP_t at the estimate on this frame (background.COVERED_OP, CLEAR_OP): from the match when it searched there, so
+    # that the checks of an alignment see it too, else measured before the motion sources move the estimate
+    hidden_share: float = 0.0
     is_lost: bool = False  # the last frame was `lost` (nothing says where the target is until it is aligned again)
     # the estimate comes from this tracker's own alignments and measurements of the scene, not from a pose given from
     # outside (Tracker.seed); with few predictor frames since (drift_run) it is the surroundings' (HybridTracker._verified)
