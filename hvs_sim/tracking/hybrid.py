@@ -121,7 +121,7 @@ class HybridTracker(Tracker):
         if config.background:
             self.scene_motion = SceneMotionSource(self.aligner, config.background_config, config.background_gate_px,
                                                   continues=config.background_gate_continues,
-                                                  sway=config.background_gate_sway,
+                                                  widen=config.background_gate_sway,
                                                   inertia=config.scene_inertia_frames)
             self.scene_sources.append(self.scene_motion)
         self.predictor_source = PredictorSource(predictor, config.max_predict_frames)

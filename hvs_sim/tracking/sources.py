@@ -137,9 +137,9 @@ class SceneMotionSource:
     name = "scene_motion"
 
     def __init__(self, aligner: Aligner, config: BackgroundConfig, gate_px: float, continues: bool = True,
-                 inertia: int = 0, sway: bool = True):
+                 inertia: int = 0, widen: bool = True):
         self.aligner, self.gate_px, self.continues, self.inertia = aligner, gate_px, continues, inertia
-        self.widens = sway  # HybridConfig.background_gate_sway
+        self.widen = widen  # HybridConfig.background_gate_sway
         self.patience = config.hop
         self.motion = BackgroundMotion(config)
 
@@ -211,7 +211,7 @@ class SceneMotionSource:
             return False
         frames = state.frame_index - self.last_measured[0]
         # the gate leaves half of itself for the view's acceleration (CONTINUE_MIN_SPEED); a sway beyond that widens it
-        sway = max(self._sways, default=0.0) if self.widens else 0.0
+        sway = max(self._sways, default=0.0) if self.widen else 0.0
         excess = max(sway - CONTINUE_MIN_SPEED * self.gate_px, 0.0)
         return bool(np.linalg.norm(t - continued) <= bound + excess * max(frames, 1))
 
