@@ -113,8 +113,8 @@ class HybridConfig:
     # hand-held view sweeping 5-7 px a frame was otherwise refused on every frame and the estimate fell behind (the
     # photos' dev split, `camo`: 100-225 px off under the look-alike person); False: from the estimate alone
     background_gate_continues: bool = True
-    # ... and that continuation's bound widens by how much the target's per-frame motion changed between the last
-    # consecutive alignments, beyond the half of the gate left for it (SceneMotionSource._passes): hand-held at 10 fps
+    # ... and the gate, around the estimate and that continuation, widens by how much the target's per-frame motion
+    # changed between the last consecutive alignments, beyond the half of it left for that (_passes): hand-held at 10 fps
     # the view's per-frame motion changed by 4-6 px from one frame to the next, and the gate refused every correct
     # measurement while the camera's inertia carried the estimate away (docs/results.md, a view three times faster);
     # False: a fixed gate

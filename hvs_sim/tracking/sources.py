@@ -203,17 +203,15 @@ class SceneMotionSource:
         last measured position (_continued; a view sweeping 5-7 px a frame, hand-held at 10 fps: from the estimate
         alone every correct measurement was refused, the estimate fell behind and the chain was restarted from it)."""
         t = _translation(A, state.center0)
-        bound = self.gate_px * (1 + state.predict_run)
+        # the gate leaves half of itself for the view's acceleration (CONTINUE_MIN_SPEED); a sway beyond that widens it,
+        # from the estimate too: after a re-anchoring the scene's last motion can be stale, and no continuation offered
+        sway = max(self._sways, default=0.0) if self.widen else 0.0
+        excess = max(sway - CONTINUE_MIN_SPEED * self.gate_px, 0.0) * max(state.frame_index - self.last_measured[0], 1)
+        bound = self.gate_px * (1 + state.predict_run) + excess
         if np.linalg.norm(t - _translation(state.A, state.center0)) <= bound:
             return True
         continued = self._continued(state) if self.continues else None
-        if continued is None:
-            return False
-        frames = state.frame_index - self.last_measured[0]
-        # the gate leaves half of itself for the view's acceleration (CONTINUE_MIN_SPEED); a sway beyond that widens it
-        sway = max(self._sways, default=0.0) if self.widen else 0.0
-        excess = max(sway - CONTINUE_MIN_SPEED * self.gate_px, 0.0)
-        return bool(np.linalg.norm(t - continued) <= bound + excess * max(frames, 1))
+        return continued is not None and bool(np.linalg.norm(t - continued) <= bound)
 
     def propose(self, work, state):
         A = self.measure(work, state, gated=True)
