@@ -20,7 +20,7 @@ from pathlib import Path
 DEV_SPLIT = Path(__file__).resolve().parent.parent.parent / "shared" / "devsets" / "handheld_photos.py"
 # the two lines of the dev split that set the frame rate and the exposure's share of a frame (12 ms of a 33 ms frame)
 FPS_LINE, EXPOSURE_LINE = "FPS = 30.0", "exposure_frac = 0.36"
-DEV_FPS, EXPOSURE_S = 30.0, 0.012
+EXPOSURE_S = 0.012
 
 
 def load(fps: float) -> types.ModuleType:

@@ -399,12 +399,12 @@ class HybridTracker(Tracker):
         m, A_seed, occ, is_current = al.coarse(work, st.A)
         t2 = time.perf_counter()
         occ = self._occlusion_at(frame, A_seed, occ)
-        if is_current:  # OP_t at the estimate: how much of the target is covered, for the checks of an alignment too
-            st.hidden_share = occ
         t3 = time.perf_counter()
         self.stage_ms.update(prepare=1e3 * (t1 - t0), coarse=1e3 * (t2 - t1), occlusion=1e3 * (t3 - t2))
         if m.score <= 0:  # blank or uniform frame
             occ = 1.0
+        if is_current:  # OP_t at the estimate: how much of the target is covered (background.COVERED_OP, CLEAR_OP),
+            st.hidden_share = occ  # for the checks of an alignment too
         gate = self.hconfig.occlusion_gate
         confident = m.score > 0 and (m.score >= self.config.match_threshold or (self.hconfig.continuity and is_current))
         if confident and (occ < gate or self.hconfig.gate_after_alignment):
@@ -436,9 +436,7 @@ class HybridTracker(Tracker):
         else:
             st.jump_seen(None, 0.0)
         t4 = time.perf_counter()
-        if is_current:  # OP_t at the estimate: how much of the target the occluder covers (background.COVERED_OP)
-            st.hidden_share = occ
-        else:
+        if not is_current:  # not measured at the estimate yet
             st.hidden_share = self._occlusion_measured(frame, work, al.to_work(st.A))
         est = self._predict(work, occ, m, cut)
         self.stage_ms["sources"] = 1e3 * (time.perf_counter() - t4)

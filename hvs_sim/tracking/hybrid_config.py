@@ -7,7 +7,7 @@ from dataclasses import dataclass, field, replace
 
 from hvs_sim.errors import ConfigError
 from hvs_sim.tracking.aligner_config import DeepLKConfig
-from hvs_sim.tracking.background import BackgroundConfig
+from hvs_sim.tracking.background import CLEAR_OP, BackgroundConfig
 from hvs_sim.tracking.feature_lk import LKConfig
 from hvs_sim.tracking.predictors import PREDICTORS
 from hvs_sim.validate import check_flags, check_number
@@ -71,10 +71,10 @@ APPEARANCE_RECORD_OCC = 0.1  # an alignment with OP_t up to this is confident en
 # report then carried through the whole occlusion (photos' dev split, `hand` on china of seed 7)
 PERSPECTIVE_MAX_OCC = 0.1
 # an alignment is checked against the surroundings (HybridConfig.pull_check) where OP_t there is over this (the target
-# partly covered; a clear hand-held view reads up to ~0.15 from blur and noise, and checking from 0.1 peeked at the
-# surroundings on a fifth of the photos' dev frames, 4.35 -> 5.28x the ECC reference's time), and taken for pulled by
-# the occluder where it lies over PULL_CHECK_PX from the surroundings' pose
-PULL_CHECK_OCC = 0.15
+# partly covered; a clear hand-held view reads up to ~0.15 from blur and noise, background.CLEAR_OP; checking from 0.1
+# peeked at the surroundings on a fifth of the photos' dev frames, 4.35 -> 5.28x the ECC reference's time), and taken
+# for pulled by the occluder where it lies over PULL_CHECK_PX from the surroundings' pose
+PULL_CHECK_OCC = CLEAR_OP
 PULL_CHECK_PX = 1.0
 # ... and the pose is reported with the median of the last this many (HybridTracker._reported): on a clear sequence
 # whose tilted view biased the similarity by up to 3.8 px (china, seed 7) the correction moved by at most 0.9 px
