@@ -75,6 +75,10 @@ CONTINUE_MIN_SPEED = 0.5  # ... and from half the gate a frame (a fraction of ba
 # ... and its bound widens by the largest change of the target's per-frame motion over this many of the last
 # consecutive alignments, beyond the half of the gate left for it (HybridConfig.background_gate_sway, on_aligned)
 SWAY_MEASUREMENTS = 5
+# a target taken for covered (OP_t at the estimate at least background.COVERED_OP) stays so until OP_t falls under
+# this: under a coat OP_t read 0.80-0.82 frame after frame and dipped to 0.797, and on those frames the coat's
+# consensus, moving with the view one way but not the other, was chained (photos' dev split, `long` aero, seed 7)
+COVERED_HOLD_OP = 0.6
 
 
 class KeyframeAnchorSource:
@@ -151,6 +155,7 @@ class SceneMotionSource:
         # surroundings, never predicted; the scene's motion continues it (_passes)
         self._step: np.ndarray | None = None  # the target's motion between the last two alignments (on_aligned)
         self._sways: deque[float] = deque(maxlen=SWAY_MEASUREMENTS)
+        self._covered = False  # the target is taken for covered (COVERED_OP, COVERED_HOLD_OP)
         self.last_measured: tuple[int, np.ndarray] = (state.frame_index, state.A.copy())
 
     def _measured_at(self, state) -> None:
@@ -183,7 +188,8 @@ class SceneMotionSource:
         key_work, A_key = self.key
         # a target in view (CLEAR_OP) is no occluder's: its box's corners are its own and move with the scene
         hidden = apply(self.aligner.S @ state.A, state.corners0) if state.hidden_share > CLEAR_OP else None
-        self.motion.covered = state.hidden_share >= COVERED_OP
+        self._covered = state.hidden_share >= (COVERED_HOLD_OP if self._covered else COVERED_OP)
+        self.motion.covered = self._covered
         al = self.aligner
 
         def full(M: np.ndarray) -> np.ndarray:
@@ -231,6 +237,7 @@ class SceneMotionSource:
 
     def on_aligned(self, work, state):
         self.motion.reset()  # the chain starts again from the new keyframe
+        self._covered = False
         self.key = state.keyframe
         # the target is part of the scene: its frame-to-frame motion is the scene's, which tells the
         # wall's consensus from a coat's once the target is hidden (BackgroundMotion.velocity)
