@@ -376,26 +376,50 @@ def test_hidden_target_follows_a_view_sweeping_faster_than_the_gate(flag_frame):
     assert max(errors) <= 1.0, np.round(errors, 2)
 
 
+def at(x: float, y: float) -> np.ndarray:
+    """A full-res warp that moves the target by (x, y) px."""
+    return np.array([[1.0, 0.0, x], [0.0, 1.0, y], [0.0, 0.0, 1.0]])
+
+
+def measured_sweep(flag_frame):
+    """A tracker whose estimate at (2.5, -2) was measured on the frame before, in a scene moving (-6, -1) full-res px a
+    frame: (tracker, its SceneMotionSource, its state)."""
+    tr = tracking_on(flag_frame, random_walk(5))
+    sm, st = tr.scene_motion, tr.state
+    s = tr.aligner.S[0, 0]  # work px per full-res px
+    st.A = at(2.5, -2.0)
+    sm.last_measured = (st.frame_index - 1, st.A.copy())
+    sm.motion.velocity = at(-6.0 * s, -1.0 * s)
+    return tr, sm, st
+
+
 def test_a_sweeping_view_is_continued_by_the_scenes_own_motion(flag_frame):
     """The view sweeps 6 px a frame, over `background_gate_px`, while the target is covered. The estimate's last
     positions come from interleaved chains of hops that can differ by 2-3 px, so their difference is no velocity; the
     scene's own motion, measured over the hop, continues the last measured position: a correct measurement passes the
     gate, and one a person's consensus puts 6 px from it does not."""
-    tr = tracking_on(flag_frame, random_walk(5))
-    sm, st = tr.scene_motion, tr.state
-    s = tr.aligner.S[0, 0]  # work px per full-res px
-
-    def at(x: float, y: float) -> np.ndarray:
-        return np.array([[1.0, 0.0, x], [0.0, 1.0, y], [0.0, 0.0, 1.0]])
-
-    st.A = at(2.5, -2.0)
-    sm.last_measured = (st.frame_index - 1, st.A.copy())
-    sm.motion.velocity = at(-6.0 * s, -1.0 * s)  # the scene: (-6, -1) full-res px a frame
+    tr, sm, st = measured_sweep(flag_frame)
     assert tr.hconfig.background_gate_px < np.hypot(6.0, 1.0)
     assert sm._passes(at(-3.5, -3.0), st)  # where the scene's motion carries the estimate
     assert not sm._passes(at(-3.5, 3.0), st)
     sm.motion.velocity = None  # no measured motion: judged from the estimate alone
     assert not sm._passes(at(-3.5, -3.0), st)
+
+
+def test_a_velocity_measured_over_a_hop_widens_the_gate_by_its_age(flag_frame):
+    """The scene's velocity measured over a 5-frame hop is the view's motion at the hop's middle, two frames older than
+    the hop's end. A view whose per-frame motion has been changing by 5 px a frame may have turned that much in each of
+    those frames too: a measurement 10 px from the continuation is taken, where with a velocity measured over one
+    frame it is refused; a consensus 15 px from it is refused either way."""
+    _, sm, st = measured_sweep(flag_frame)  # the continuation: (-3.5, -3.0)
+    sm._sways.clear()
+    sm._sways.append(5.0)  # full-res px a frame, 3 px beyond the half of the gate left for it
+    turned, person = at(-13.5, -3.0), at(-18.5, -3.0)
+    sm.motion.velocity_age = 0.0
+    assert not sm._passes(turned, st)
+    sm.motion.velocity_age = 2.0  # a 5-frame hop's
+    assert sm._passes(turned, st)
+    assert not sm._passes(person, st)
 
 
 @pytest.mark.parametrize("sway", [True, False])

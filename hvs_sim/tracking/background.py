@@ -418,6 +418,7 @@ class BackgroundMotion:
         self.covered = False  # the hidden target is covered (COVERED_OP): set by the caller for each frame
         if forget_motion or not hasattr(self, "velocity"):
             self.velocity: np.ndarray | None = None  # the scene's last per-frame motion (similarity)
+            self.velocity_age = 0.0  # frames from the middle of the hop it was measured over to the hop's end
 
     def start(self, key: np.ndarray) -> None:
         self.reset()
@@ -486,7 +487,7 @@ class BackgroundMotion:
                 if accept is not None and not accept(M):
                     continue
                 self.chain.append((self.frame, grey, M))
-                self.velocity = _per_frame(S, self.frame - k)
+                self.velocity, self.velocity_age = _per_frame(S, self.frame - k), (self.frame - k - 1) / 2
                 return M
         return None
 

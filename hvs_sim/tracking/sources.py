@@ -210,9 +210,14 @@ class SceneMotionSource:
         alone every correct measurement was refused, the estimate fell behind and the chain was restarted from it)."""
         t = _translation(A, state.center0)
         # the gate leaves half of itself for the view's acceleration (CONTINUE_MIN_SPEED); a sway beyond that widens it,
-        # from the estimate too: after a re-anchoring the scene's last motion can be stale, and no continuation offered
+        # from the estimate too: after a re-anchoring the scene's last motion can be stale, and no continuation offered.
+        # It widens for as many frames as the view's motion went unmeasured: since the last measurement, and since the
+        # middle of the hop the scene's velocity was measured over (velocity_age; a view under half the gate a frame
+        # is judged from the estimate, which stands for that velocity). A 5-frame hop at 10 fps is half a second, in
+        # which a hand-held view's motion turned by up to 8 px a frame (photos' dev split)
         sway = max(self._sways, default=0.0) if self.widen else 0.0
-        excess = max(sway - CONTINUE_MIN_SPEED * self.gate_px, 0.0) * max(state.frame_index - self.last_measured[0], 1)
+        unmeasured = max(state.frame_index - self.last_measured[0], 1) + self.motion.velocity_age
+        excess = max(sway - CONTINUE_MIN_SPEED * self.gate_px, 0.0) * unmeasured
         bound = self.gate_px * (1 + state.predict_run) + excess
         if np.linalg.norm(t - _translation(state.A, state.center0)) <= bound:
             return True
@@ -244,6 +249,7 @@ class SceneMotionSource:
         A_work = self.aligner.to_work(state.A)
         if self.last_aligned is not None and self.last_aligned[0] == state.frame_index - 1:
             self.motion.velocity = A_work @ np.linalg.inv(self.last_aligned[1])
+            self.motion.velocity_age = 0.0  # measured over one frame
             # how much the target's per-frame motion changed between consecutive alignments (px): the continuation's
             # own error a frame (_passes). A hand-held view's sway changed it by 1-2 px at 30 fps (the photos' dev
             # split), by 4-6 px at 10 fps. Not from the surroundings' hops: under a coat their noise read 2-4 px
