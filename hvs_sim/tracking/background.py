@@ -1,35 +1,31 @@
 """Camera motion measured on the scene around the target, for the hybrid tracker's predict path.
 
-While the target is hidden, the flags and wall around it are usually still in view. The target is
-rigidly part of that surface, so its image motion is the surface's image motion. Each frame,
-corners found in a recent frame are followed into the current one with pyramidal Lucas–Kanade
-(OpenCV) and a similarity is fitted with RANSAC, which rejects points on the occluder; the
-similarities are chained from the keyframe (the last frame the target was aligned in).
-Chained over short hops rather than matched to the keyframe, because a person crossing close to
-the camera sweeps over the view: nothing of the keyframe may stay visible, but frames a few steps
-apart always share something. The consensus is found as a similarity, because the visible part can
-be a narrow strip, from which a homography extrapolates badly to the hidden target; where its
-inliers spread over the view, the hop is refitted on them as a homography (`homography`): a picture
-on a wall moves as a plane, and a similarity chained through a hand-held camera's tilt drifted
-2–4 px in 3 s where the homography of the same wall points stayed within 0.5 px (docs/tuning.md).
-Under a hand-held camera's tilt a similarity within RANSAC's 0.3 px often holds only part of the wall (one strip
-beside a coat), so the hop also looks for the plane that contains the similarity's consensus among all followed
-points (`grow_plane`), and keeps it where a robust model-selection criterion (Torr's GRIC) says the plane explains
-the points better than the similarity by more than its four extra parameters cost: in a scene of one plane it takes in
-the rest of the wall; in a scene of several depths (a room, a floor, people) a homography that merely bends to a few
-more points is not chosen.
+While the target is hidden, the flags and wall around it are usually still in view. The target is rigidly part of that
+surface, so its image motion is the surface's image motion. Each frame, corners found in a recent frame are followed
+into the current one with pyramidal Lucas–Kanade (OpenCV) and a similarity is fitted with RANSAC, which rejects points
+on the occluder; the similarities are chained from the keyframe (the last frame the target was aligned in). Chained over
+short hops rather than matched to the keyframe, because a person crossing close to the camera sweeps over the view:
+nothing of the keyframe may stay visible, but frames a few steps apart always share something. The consensus is found as
+a similarity, because the visible part can be a narrow strip, from which a homography extrapolates badly to the hidden
+target; where its inliers spread over the view, the hop is refitted on them as a homography (`homography`): a picture on
+a wall moves as a plane, and a similarity chained through a hand-held camera's tilt drifted 2–4 px in 3 s where the
+homography of the same wall points stayed within 0.5 px (docs/tuning.md). Under a hand-held camera's tilt a similarity
+within RANSAC's 0.3 px often holds only part of the wall (one strip beside a coat), so the hop also looks for the plane
+that contains the similarity's consensus among the followed points (`grow_plane`; not the occluder's: a homography bent
+across a coat and a strip of wall fits both), and keeps it where a robust model-selection criterion (Torr's GRIC) says
+the plane explains the points better than the similarity by more than its four extra parameters cost: in a scene of one
+plane it takes in the rest of the wall; in a scene of several depths (a room, a floor, people) a homography that merely
+bends to a few more points is not chosen.
 
-The occluder is what stands in front of the target (`occluder_prior`): of two competing
-consensuses, one with corners on the hidden target's box, where the other has almost none, is the
-occluder's (a partly hidden target's own visible corners move with the wall, so then neither is
-ruled out). Without it a checked shirt standing over the target gave every one of the strongest
-corners, and the chain followed the person's sway. Corners are also guaranteed in every part of the
-view (`cell_corners`), so that a weakly textured wall still has some beside a strongly textured coat.
+The occluder is what stands in front of the target (`occluder_prior`): of two competing consensuses, one with corners on
+the hidden target's box, where the other has almost none, is the occluder's (a partly hidden target's own visible
+corners move with the wall, so then neither is ruled out). Without it a checked shirt standing over the target gave
+every one of the strongest corners, and the chain followed the person's sway. Corners are also guaranteed in every part
+of the view (`cell_corners`), so that a weakly textured wall still has some beside a strongly textured coat.
 
-What it cannot do: when the occluder fills the whole view there is nothing to measure, and the
-hybrid tracker falls back on its motion predictor; the chain then starts again from the
-predictor's estimate, and anchor.KeyframeAnchor takes that error out once the wall shows again.
-"""
+What it cannot do: when the occluder fills the whole view there is nothing to measure, and the hybrid tracker falls back
+on its motion predictor; the chain then starts again from the predictor's estimate, and anchor.KeyframeAnchor takes that
+error out once the wall shows again."""
 
 from __future__ import annotations
 
@@ -195,20 +191,23 @@ def _ransac(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig) -> tuple[np.n
 
 
 def _consensus(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig, expected: np.ndarray | None = None,
-               hidden: np.ndarray | None = None, covered: bool = False) -> tuple[np.ndarray | None, np.ndarray]:
-    """RANSAC similarity src → dst (3×3) and its inliers, or None when too few points agree on it.
+               hidden: np.ndarray | None = None, covered: bool = False
+               ) -> tuple[np.ndarray | None, np.ndarray, np.ndarray]:
+    """RANSAC similarity src → dst (3×3), its inliers and the points judged the occluder's (a consensus ruled out
+    as the occluder's, the covered box's points), or None when too few points agree on it.
 
     A second consensus among the first one's outliers competes with it: a textured coat that fills
     half the view gives as many agreeing corners as the wall. With `hidden` (the hidden target's
     box in src, 4×2), the consensus gathered around it is the occluder's; otherwise, with `expected`
     (the displacement the scene's motion so far predicts at each point), the consensus whose motion
     is nearer the expected one wins."""
-    none = None, np.zeros(len(src), bool)
+    none = None, np.zeros(len(src), bool), np.zeros(len(src), bool)
     if len(src) < c.min_inliers:
         return none
     S, inl = _ransac(src, dst, c)
     if S is None or int(inl.sum()) < max(c.min_inliers, c.min_inlier_ratio * len(src)):
         return none
+    clear = np.zeros(len(src), bool)
     if covered and hidden is not None:
         on_box = _near(src, hidden, COVERED_SHRINK)
         if int((on_box & inl).sum()) >= COVERED_MIN_POINTS:  # the occluder's consensus (COVERED_OP)
@@ -220,13 +219,13 @@ def _consensus(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig, expected: 
                 return none  # missed the hidden target by 1.0-1.3 px a hop, the same way (docs/results.md)
             second = np.zeros(len(src), bool)
             second[rest[inl2]] = True
-            return S2, second
+            return S2, second, inl | on_box
     if (expected is None and hidden is None) or (~inl).sum() < c.min_inliers:
-        return S, inl
+        return S, inl, clear
     rest = np.flatnonzero(~inl)
     S2, inl2 = _ransac(src[rest], dst[rest], c)
     if S2 is None or inl2.sum() < c.min_inliers:
-        return S, inl
+        return S, inl, clear
     second = np.zeros(len(src), bool)
     second[rest[inl2]] = True
 
@@ -238,12 +237,12 @@ def _consensus(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig, expected: 
         if f1 > OCCLUDER_SHARE and f2 <= OCCLUDER_CLEAR and second.sum() >= OCCLUDER_MIN_OTHER and \
                 np.all(np.ptp(src[second], axis=0) >= OCCLUDER_SPREAD * np.ptp(src, axis=0)) and (
                 expected is None or miss(S2) <= miss(S) + OCCLUDER_MISS_PX):  # not a repeated texture's false match
-            return S2, second
+            return S2, second, inl
         if f2 > OCCLUDER_SHARE and f1 <= OCCLUDER_CLEAR:
-            return S, inl
+            return S, inl, second
     if expected is None or second.sum() < COMPETING_SHARE * inl.sum():
-        return S, inl
-    return (S2, second) if miss(S2) < miss(S) else (S, inl)
+        return S, inl, clear
+    return (S2, second, clear) if miss(S2) < miss(S) else (S, inl, clear)
 
 
 def _miss(M: np.ndarray, src: np.ndarray, expected: np.ndarray) -> float:
@@ -303,11 +302,12 @@ def _gric_prefers(M: np.ndarray, dof: int, S: np.ndarray, src: np.ndarray, dst: 
 
 
 def _grown_plane(S: np.ndarray, inl: np.ndarray, src: np.ndarray, dst: np.ndarray, shape: tuple[int, int],
-                 ransac_px: float) -> np.ndarray | None:
-    """The homography of the plane that contains the similarity consensus (S, its inliers `inl`) among all the
-    followed points src → dst, where its inliers spread over the view (GROWN_PLANE_SPREAD) and GRIC prefers it to S;
-    else None (PLANE_*, GRIC_*)."""
-    left = np.ones(len(src), bool)
+                 ransac_px: float, occluder: np.ndarray | None = None) -> np.ndarray | None:
+    """The homography of the plane that contains the similarity consensus (S, its inliers `inl`) among the followed
+    points src → dst but the `occluder`'s, where its inliers spread over the view (GROWN_PLANE_SPREAD) and GRIC
+    prefers it to S; else None (PLANE_*, GRIC_*). A coat beside a strip of wall moved 1 px apart from it over a hop,
+    and a homography bent across both fits them (a shear), placing the hidden target by the coat's motion."""
+    left = np.ones(len(src), bool) if occluder is None else ~occluder
     for _ in range(PLANE_MODELS):
         idx = np.flatnonzero(left)
         if len(idx) < HOMOGRAPHY_MIN_INLIERS:
@@ -365,11 +365,11 @@ def _transform(pts: np.ndarray, M: np.ndarray) -> np.ndarray:
 
 
 def _hop_model(S: np.ndarray, inl: np.ndarray, src: np.ndarray, dst: np.ndarray, shape: tuple[int, int],
-               c: BackgroundConfig) -> np.ndarray:
+               c: BackgroundConfig, occluder: np.ndarray | None = None) -> np.ndarray:
     """The motion a hop chains, from its similarity consensus (S, its inliers `inl` among src → dst): the plane that
     contains it (grow_plane), else its inliers' homography where they carry one, else their camera turn where GRIC
     prefers it on them (turn), else S."""
-    grown = _grown_plane(S, inl, src, dst, shape, c.ransac_px) if c.grow_plane else None
+    grown = _grown_plane(S, inl, src, dst, shape, c.ransac_px, occluder) if c.grow_plane else None
     if grown is not None:
         return grown
     p, q = src[inl], dst[inl]
@@ -445,11 +445,11 @@ class BackgroundMotion:
             V = np.linalg.matrix_power(self.velocity, frames)
             expected = apply(V, pts[ok]) - pts[ok]
         p, q = pts[ok], nxt[ok]
-        S, inl = _consensus(p, q, c, expected, hidden if c.occluder_prior and c.competing else None,
-                            self.covered and c.occluder_prior)
+        S, inl, occluder = _consensus(p, q, c, expected, hidden if c.occluder_prior and c.competing else None,
+                                      self.covered and c.occluder_prior)
         if S is None:
             return
-        yield (_hop_model(S, inl, p, q, src.shape[:2], c) if c.homography else S), S
+        yield (_hop_model(S, inl, p, q, src.shape[:2], c, occluder) if c.homography else S), S
         if not c.runner_up or expected is None:
             return
         # the first was refused (a coat sweeping in, which holds most corners, jumps past the gate): the wall is among
@@ -465,7 +465,7 @@ class BackgroundMotion:
         second[rest[inl2]] = True
         if hidden is not None and _near(p[second], hidden).any():  # the wall has no corners on the hidden target
             return
-        yield (_hop_model(S2, second, p, q, src.shape[:2], c) if c.homography else S2), S2
+        yield (_hop_model(S2, second, p, q, src.shape[:2], c, inl) if c.homography else S2), S2  # the first: a coat's
 
     def update(self, grey: np.ndarray, hidden: np.ndarray | None = None,
                accept: Callable[[np.ndarray], bool] | None = None) -> np.ndarray | None:
