@@ -62,14 +62,13 @@ import numpy as np
 
 from hvs_sim.tracking.aligner import RECTIFY_DEG, RECTIFY_SCALE, Aligner
 from hvs_sim.tracking.base import Estimate, Mode, Tracker
+from hvs_sim.tracking.cuts import CUT_MIN_CONTRAST, CUT_THUMB, thumbnail  # noqa: F401 (importable from here)
 from hvs_sim.tracking.hybrid_config import (  # noqa: F401  (HybridConfig and its constants, importable from here)
     APPEARANCE_HISTORY,
     APPEARANCE_MIN_SHOWN,
     APPEARANCE_RECORD_OCC,
     APPEARANCE_SLACK,
     CONFIDENCE_HALF_LIFE,
-    CUT_MIN_CONTRAST,
-    CUT_THUMB,
     HOMOGRAPHY_LK_EPS,
     HYBRID_LK,
     HYBRID_LK_HOMOGRAPHY,
@@ -95,7 +94,6 @@ from hvs_sim.tracking.sources import (
     MotionSource,
     PredictorSource,
     SceneMotionSource,
-    thumbnail,
 )
 from hvs_sim.tracking.trackability import check_trackable
 from hvs_sim.tracking.warp import apply, matrix_to_pose, translate

@@ -49,8 +49,6 @@ def hybrid_deep_config(residual: bool = False, warp: str = "similarity") -> Deep
 
 
 TARGET_MOTIONS = ("static", "moving", "auto")  # HybridConfig.target_motion
-CUT_THUMB = (32, 24)  # the thumbnail two frames are compared on for a scene cut (w, h)
-CUT_MIN_CONTRAST = 2.0 / 255  # a thumbnail with less RMS contrast (intensity in [0, 1]) has nothing to compare
 
 # predictor frames since the last alignment or re-anchoring after which the estimate is no longer the surroundings'
 # (HybridConfig.surroundings_veto_frames): half a second of guesses. A shirt printed with the scene's texture left the

@@ -19,13 +19,11 @@ from collections import deque
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
-import cv2
 import numpy as np
 
 from hvs_sim.tracking.anchor import KeyframeAnchor
 from hvs_sim.tracking.background import CLEAR_OP, COVERED_OP, BackgroundConfig, BackgroundMotion
 from hvs_sim.tracking.base import Mode
-from hvs_sim.tracking.hybrid_config import CUT_MIN_CONTRAST, CUT_THUMB
 from hvs_sim.tracking.predictors import MotionPredictor
 from hvs_sim.tracking.warp import apply, matrix_to_pose, translate
 
@@ -309,16 +307,6 @@ class PredictorSource:
         if not self._rolled:
             self.predictor.carry(_translation(state.A, state.center0))
         self._rolled = False
-
-
-def thumbnail(work: np.ndarray) -> np.ndarray | None:
-    """A small zero-mean, unit-norm copy of the working image: two frames of one shot correlate on it, a cut does not.
-    None for a frame without content to compare (a body or a hand filling the view, the lens covered): that is an
-    occlusion, not a cut."""
-    t = cv2.resize(np.asarray(work, np.float32), CUT_THUMB, interpolation=cv2.INTER_AREA).ravel()
-    t = t - t.mean()
-    norm = float(np.linalg.norm(t))
-    return None if norm < CUT_MIN_CONTRAST * np.sqrt(t.size) else t / norm
 
 
 @dataclass
