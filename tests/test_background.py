@@ -441,11 +441,11 @@ def test_a_velocity_measured_over_a_hop_widens_the_gate_by_its_age(flag_frame):
     _, sm, st = measured_sweep(flag_frame)  # the continuation: (-3.5, -3.0)
     sm._sways.clear()
     sm._sways.append(5.0)  # full-res px a frame, 3 px beyond the half of the gate left for it
-    turned, person = at(-13.5, -3.0), at(-18.5, -3.0)
+    swung, person = at(-13.5, -3.0), at(-18.5, -3.0)
     sm.motion.velocity_age = 0.0
-    assert not sm._passes(turned, st)
+    assert not sm._passes(swung, st)
     sm.motion.velocity_age = 2.0  # a 5-frame hop's
-    assert sm._passes(turned, st)
+    assert sm._passes(swung, st)
     assert not sm._passes(person, st)
 
 
