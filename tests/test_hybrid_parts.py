@@ -252,3 +252,31 @@ def test_an_alignment_may_continue_the_estimates_roll_when_its_seed_is_the_templ
     assert al.align(work, seed, far, aligned=(last, 1)).A_work is None  # one frame: 7° is more than a step
     A = al.align(work, seed, far, aligned=(last, 2)).A_work
     assert A is not None and np.abs(apply(al.to_full(A), corners) - apply(truth, corners)).max() < 0.3
+
+
+def test_an_exposure_drift_does_not_move_the_feature_lk_on_a_low_contrast_target():
+    """Hazy low-contrast texture over a brightness ramp (a sky's haze), seen 20 % darker or brighter: VGG features
+    are not invariant to a gain, and the feature LK on the frame as it comes is pulled along the ramp; scaled to
+    the template's exposure first (`normalise_lk_exposure`) it aligns."""
+    import cv2
+
+    ramp = (120 + 0.4 * np.arange(480, dtype=np.float32))[:, None, None]
+    c = np.array([ROI[0] + (ROI[2] - 1) / 2, ROI[1] + (ROI[3] - 1) / 2])
+
+    def error(method: str, img: np.ndarray, gain: float, dx: float, dy: float) -> tuple[str, float]:
+        shifted = cv2.warpAffine(img.astype(np.float32) * gain, np.float32([[1, 0, dx], [0, 1, dy]]),
+                                 img.shape[1::-1], flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+        tr = make_tracker(method, allow_untrackable=True)
+        tr.init(img, ROI)
+        tk = tr.update(np.clip(shifted, 0, 255).astype(np.uint8))
+        return tk.mode, float(np.linalg.norm(tk.center - (c + (dx, dy))))
+
+    raw = []
+    for name, seed in (("foliage", 2), ("fabric", 1)):
+        tex = _frame(name, seed).astype(np.float32)
+        img = np.clip(ramp + 0.1 * (tex - tex.mean()), 0, 255).astype(np.uint8)
+        for gain, (dx, dy) in itertools.product((0.8, 1.2), ((1.5, -1.0), (-2.5, 2.0))):
+            mode, err = error("hybrid", img, gain, dx, dy)
+            assert mode == "align" and err < 0.15, (name, gain, mode, err)
+            raw.append(error("hybrid_raw_lk", img, gain, dx, dy))
+    assert any(mode != "align" or err > 1.0 for mode, err in raw)  # as it comes, the drift stops or moves the LK

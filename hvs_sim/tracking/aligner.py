@@ -139,9 +139,13 @@ class Aligner:
         crop = frame[y0 * k:y1 * k, x0 * k:x1 * k]
         return cv2.resize(crop, None, fx=s, fy=s, interpolation=cv2.INTER_AREA), np.array([x0, y0], float)
 
-    def features(self, work: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> dict[str, torch.Tensor]:
+    def features(self, work: np.ndarray, x0: int, y0: int, x1: int, y1: int, gain: float = 1.0
+                 ) -> dict[str, torch.Tensor]:
+        """VGG features of the crop [y0:y1, x0:x1] of `work`, its intensities divided by the exposure `gain`."""
         t0 = time.perf_counter()
         crop = np.ascontiguousarray(work[y0:y1, x0:x1], np.float32)
+        if gain != 1.0:
+            crop *= np.float32(1.0 / gain)
         with torch.inference_mode():
             out = self.net(torch.from_numpy(crop)[None, None].to(self.device), levels=self.config.lk.levels)
         feats = {k: v[0].float().cpu() for k, v in out.items()}
@@ -224,6 +228,13 @@ class Aligner:
 
     # ----------------------------------------------------------------- per frame
 
+    def exposure_at(self, work: np.ndarray, A_work: np.ndarray) -> float:
+        """The frame's exposure gain against the template's, on the patch A_work aligns (the mode of the
+        per-pixel ratios, occlusion.py: an occluder's pixels and a seed a few pixels off spread their ratios
+        away from it)."""
+        patch, inside = aligned_patch(work, A_work, self.t_origin, (self.th, self.tw))
+        return self.reference.gain(patch, inside)
+
     def occlusion(self, work: np.ndarray, A_work: np.ndarray) -> float:
         patch, inside = aligned_patch(work, A_work, self.t_origin, (self.th, self.tw))
         return self.reference(patch, inside)
@@ -291,11 +302,13 @@ class Aligner:
 
     def lk(self, work: np.ndarray, A_work: np.ndarray) -> LKOutput | None:
         """Plain feature LK from A_work on a crop around it, or None when the crop is too small
-        (target off the frame)."""
+        (target off the frame). With `normalise_lk_exposure` the crop is first divided by the exposure gain
+        measured at A_work (`exposure_at`)."""
         x0, y0, x1, y1 = self.crop_box(apply(A_work, self.t_corners), work.shape)
         if x1 - x0 < MIN_CROP or y1 - y0 < MIN_CROP:
             return None
-        feats = self.features(work, x0, y0, x1, y1)
+        gain = self.exposure_at(work, A_work) if self.config.normalise_lk_exposure else 1.0
+        feats = self.features(work, x0, y0, x1, y1, gain)
         origin = np.array([x0, y0], float)
         t0 = time.perf_counter()
         res = self.lk_engine.align(feats, origin, (y1 - y0, x1 - x0), self.N @ A_work @ self.N_inv)

@@ -55,6 +55,10 @@ class DeepLKConfig:
     # OP_t after scaling the template by the frame's exposure gain (occlusion.py; False: raw
     # intensities, as the paper)
     normalise_exposure: bool = True
+    # the feature LK sees the frame scaled to the template's exposure (Aligner.lk; False: as it comes, as the
+    # paper): VGG features are not invariant to a gain, and on a low-contrast target a 20 % exposure drift
+    # moved LK's optimum by 5–10 px
+    normalise_lk_exposure: bool = True
     # the warp the feature LK estimates: "similarity" (the paper's: translation, roll, scale) or
     # "homography" (a plane in perspective: its four corners are true perspective corners, so a
     # servo loop can control all six DOF)
@@ -78,7 +82,7 @@ class DeepLKConfig:
             raise ConfigError(f"lk must be an LKConfig (or, through make_tracker, a dict of its settings), got "
                               f"{type(self.lk).__name__}")
         check_flags(self, ("residual", "verify_residual", "allow_untrackable", "normalise_exposure", "refine_intensity",
-                           "always_search_as_taken", "search_near_first"))
+                           "normalise_lk_exposure", "always_search_as_taken", "search_near_first"))
         if self.intensity_smooth not in SMOOTH_MODES:
             raise ConfigError(f"intensity_smooth must be one of {', '.join(SMOOTH_MODES)}, got {self.intensity_smooth!r}")
         if self.residual and self.warp != "similarity":

@@ -29,6 +29,7 @@ TRACKERS: dict[str, TrackerSpec] = {
     "sift": TrackerSpec("sift", {}, "SIFT keypoints + RANSAC similarity", "#2ca02c"),
     "hybrid_paper": TrackerSpec("hybrid", {"background": False, "colour_occlusion": False, "residual": True,
                                            "verify_residual": False, "normalise_exposure": False,
+                                           "normalise_lk_exposure": False,
                                            "verify_reacquisition": False,
                                            "gate_after_alignment": False, "perspective": False},
                                 "the hybrid as published: grey raw OP_t, GRU only, residual always applied, the "
@@ -52,6 +53,9 @@ TRACKERS: dict[str, TrackerSpec] = {
                                               "#c5b0d5"),
     "hybrid_raw_op": TrackerSpec("hybrid", {"normalise_exposure": False},
                                  "OP_t on raw intensities (the paper's), not exposure-normalised", "#c49c94"),
+    "hybrid_raw_lk": TrackerSpec("hybrid", {"normalise_lk_exposure": False},
+                                 "feature LK on the frame as it comes (the paper's), not scaled to the template's "
+                                 "exposure", "#843c39"),
     "hybrid_full_lk": TrackerSpec("hybrid", {"lk": {"levels": ("pool2", "pool1", "conv1_2"), "iterations": (15, 10, 8),
                                                     "channels": None, "eps": 2e-3, "coarse_eps": 1e-2},
                                              "margin": 8, "always_search_as_taken": True, "search_near_first": False},
