@@ -526,7 +526,7 @@ def test_a_coat_sweeping_in_leaves_the_wall_as_the_runner_up(runner_up, flag_fra
 @pytest.mark.parametrize("check", [True, False])
 def test_an_alignment_an_occluder_pulled_is_not_taken(check, flag_frame, monkeypatch):
     """A dark coat's edge covers a quarter of the target on the frame after an alignment. An alignment 2.5 px from where
-    the surroundings' motion puts the target, and seeing it less well (OP_t) there, was pulled by the occluder
+    the surroundings' motion puts the target, and seeing it less well there, was pulled by the occluder
     (HybridConfig.pull_check); within PULL_CHECK_PX it is taken. Where the surroundings are the wrong ones (their pose
     sees the target less well than the alignment's), the alignment is taken."""
     path = random_walk(7, 12)
@@ -549,6 +549,33 @@ def test_an_alignment_an_occluder_pulled_is_not_taken(check, flag_frame, monkeyp
     assert seen(true) > PULL_CHECK_OCC and seen(pulled) > seen(true)
     assert tr._pulled(frame, pulled, seen(pulled), work) is check
     assert not tr._pulled(frame, near, seen(near), work)
+    monkeypatch.setattr(tr.scene_motion, "measure", lambda *args, **kwargs: pulled)  # the surroundings are wrong
+    assert not tr._pulled(frame, true, seen(true), work)
+
+
+def test_a_pull_on_a_low_contrast_target_is_seen_where_op_t_is_blind(flag_frame, monkeypatch):
+    """The same coat and pull on the flags at a sixth of their contrast: OP_t no longer rises at the pulled pose (the
+    misalignment stays under τ), but the template's best-fitting visible pixels fit worse there than at the
+    surroundings' pose (Aligner.fits_better), so the alignment is refused; where the surroundings are the wrong ones
+    it is taken."""
+    img = np.clip(128 + 0.15 * (flag_frame.astype(np.float32) - flag_frame.mean()), 0, 255).astype(np.uint8)
+    path = random_walk(7, 12)
+    tr = tracking_on(img, path)
+    al, st = tr.aligner, tr.state
+    x, y, w, h = ROI
+    dx, dy = path[11]
+    frame = shift(img, dx, dy)
+    frame[int(y + dy):int(y + dy + h), int(x + dx):int(x + dx + w // 4)] = 40
+    work = al.work_image(frame)
+
+    def seen(A: np.ndarray) -> float:
+        return tr._occlusion_at(frame, al.to_work(A), al.occlusion(work, al.to_work(A)))
+
+    true = similarity(*(path[11] - path[10]), 0.0, 1.0) @ st.A
+    for d in (1.5, 2.5):
+        pulled = similarity(d, 0.0, 0.0, 1.0) @ true
+        assert seen(pulled) <= seen(true)  # OP_t alone would take the pulled alignment
+        assert tr._pulled(frame, pulled, seen(pulled), work)
     monkeypatch.setattr(tr.scene_motion, "measure", lambda *args, **kwargs: pulled)  # the surroundings are wrong
     assert not tr._pulled(frame, true, seen(true), work)
 

@@ -235,6 +235,23 @@ class Aligner:
         patch, inside = aligned_patch(work, A_work, self.t_origin, (self.th, self.tw))
         return self.reference.gain(patch, inside)
 
+    def fits_better(self, work: np.ndarray, A_work: np.ndarray, B_work: np.ndarray, visible: float) -> bool:
+        """Whether the template fits the frame better at B_work than at A_work: the mean absolute grey residual,
+        after each pose's exposure gain, over the share `visible` of the template's pixels that fit best (least
+        trimmed residuals). An occluder's pixels fit badly at both poses and are trimmed, so the visible target's
+        pixels decide, its edges included; OP_t's τ = 30 is blind to a few pixels' misalignment of a low-contrast
+        target."""
+        fits = []
+        for A in (A_work, B_work):
+            patch, inside = aligned_patch(work, A, self.t_origin, (self.th, self.tw))
+            r = np.abs(patch.astype(np.float32) - np.float32(self.reference.gain(patch, inside)) * self.reference.t32)
+            r = np.where(inside, r, np.inf).ravel()
+            k = round(float(np.clip(visible, 0.0, 1.0)) * r.size)
+            if k < 1:
+                return False
+            fits.append(float(np.mean(np.partition(r, k - 1)[:k])))
+        return fits[1] < fits[0]
+
     def occlusion(self, work: np.ndarray, A_work: np.ndarray) -> float:
         patch, inside = aligned_patch(work, A_work, self.t_origin, (self.th, self.tw))
         return self.reference(patch, inside)

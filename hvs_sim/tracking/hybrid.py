@@ -299,17 +299,20 @@ class HybridTracker(Tracker):
     def _pulled(self, frame: np.ndarray, A: np.ndarray, occ: float, work: np.ndarray) -> bool:
         """Whether an occluder pulled this alignment (HybridConfig.pull_check): a static target aligned on the frame
         before, partly covered now (OP_t over PULL_CHECK_OCC), aligned more than PULL_CHECK_PX from where the
-        surroundings' motion since then puts it, and seen less well there (OP_t) than at the surroundings' pose. Robust
-        LK still moved 0.8-1.7 px a frame towards a coat's edge over 2-14 % of the target, and the chain carried that
-        through the coat's 3.5 s stay (photos' dev split, `long` ascent of seed 2027: 2.7 px at OP_t 0.18).
-        OP_t decides because either can be wrong: the surroundings' hop, not gated here, can be the coat's (13 px)."""
+        surroundings' motion since then puts it, and fitting the template's visible pixels worse there than at the
+        surroundings' pose (Aligner.fits_better). Robust LK still moved 0.8-1.7 px a frame towards a coat's edge over
+        2-14 % of the target, and the chain carried that through the coat's 3.5 s stay (photos' dev split, `long` ascent
+        of seed 2027: 2.7 px at OP_t 0.18). The image decides because either can be wrong: the surroundings' hop, not
+        gated here, can be the coat's (13 px); OP_t could not tell a hand's 3.5 px pull on a smooth photo."""
         if not (self.hconfig.pull_check and self.target_motion == "static" and occ > PULL_CHECK_OCC
                 and self.state.since_aligned == 0 and self.scene_motion is not None):
             return False
         found = self._surroundings_miss(A, work)
         if found is None or found[1] <= PULL_CHECK_PX:
             return False
-        return bool(self._occlusion_measured(frame, work, self.aligner.to_work(found[0])) < occ)
+        B = self.aligner.to_work(found[0])
+        visible = 1.0 - max(occ, self._occlusion_measured(frame, work, B))
+        return self.aligner.fits_better(work, self.aligner.to_work(A), B, visible)
 
     def _surroundings_miss(self, A: np.ndarray, work: np.ndarray) -> tuple[np.ndarray, float] | None:
         """The pose the surroundings' motion since the last measured frame gives (SceneMotionSource.measure, peeking),
