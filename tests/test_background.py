@@ -523,29 +523,33 @@ def test_a_coat_sweeping_in_leaves_the_wall_as_the_runner_up(runner_up, flag_fra
         assert M is None and len(offered) == 1
 
 
+def coat_over_a_quarter(img: np.ndarray, **hybrid):
+    """A hybrid aligned on `img` along a random walk, then the frame after with a dark coat's edge over the left
+    quarter of the target: (tracker, frame, its work image, the true pose, OP_t at a full-res pose as the hybrid
+    measures it)."""
+    path = random_walk(7, 12)
+    tr = tracking_on(img, path, **hybrid)
+    al = tr.aligner
+    x, y, w, h = ROI
+    dx, dy = path[11]
+    frame = shift(img, dx, dy)
+    frame[int(y + dy):int(y + dy + h), int(x + dx):int(x + dx + w // 4)] = 40
+    work = al.work_image(frame)
+
+    def seen(A: np.ndarray) -> float:
+        return tr._occlusion_at(frame, al.to_work(A), al.occlusion(work, al.to_work(A)))
+
+    return tr, frame, work, similarity(*(path[11] - path[10]), 0.0, 1.0) @ tr.state.A, seen
+
+
 @pytest.mark.parametrize("check", [True, False])
 def test_an_alignment_an_occluder_pulled_is_not_taken(check, flag_frame, monkeypatch):
     """A dark coat's edge covers a quarter of the target on the frame after an alignment. An alignment 2.5 px from where
     the surroundings' motion puts the target, and seeing it less well there, was pulled by the occluder
     (HybridConfig.pull_check); within PULL_CHECK_PX it is taken. Where the surroundings are the wrong ones (their pose
     sees the target less well than the alignment's), the alignment is taken."""
-    path = random_walk(7, 12)
-    tr = tracking_on(flag_frame, path, pull_check=check)
-    al, st = tr.aligner, tr.state
-    x, y, w, h = ROI
-    dx, dy = path[11]
-    frame = shift(flag_frame, dx, dy)
-    frame[int(y + dy):int(y + dy + h), int(x + dx):int(x + dx + w // 4)] = 40
-    work = al.work_image(frame)
-
-    def moved(A: np.ndarray, d) -> np.ndarray:
-        return similarity(*d, 0.0, 1.0) @ A
-
-    def seen(A: np.ndarray) -> float:  # OP_t at a full-res pose, as the hybrid measures it
-        return tr._occlusion_at(frame, al.to_work(A), al.occlusion(work, al.to_work(A)))
-
-    true = moved(st.A, path[11] - path[10])
-    pulled, near = moved(true, (2.5, 0.0)), moved(true, (0.5, 0.0))
+    tr, frame, work, true, seen = coat_over_a_quarter(flag_frame, pull_check=check)
+    pulled, near = similarity(2.5, 0.0, 0.0, 1.0) @ true, similarity(0.5, 0.0, 0.0, 1.0) @ true
     assert seen(true) > PULL_CHECK_OCC and seen(pulled) > seen(true)
     assert tr._pulled(frame, pulled, seen(pulled), work) is check
     assert not tr._pulled(frame, near, seen(near), work)
@@ -559,19 +563,7 @@ def test_a_pull_on_a_low_contrast_target_is_seen_where_op_t_is_blind(flag_frame,
     surroundings' pose (Aligner.fits_better), so the alignment is refused; where the surroundings are the wrong ones
     it is taken."""
     img = np.clip(128 + 0.15 * (flag_frame.astype(np.float32) - flag_frame.mean()), 0, 255).astype(np.uint8)
-    path = random_walk(7, 12)
-    tr = tracking_on(img, path)
-    al, st = tr.aligner, tr.state
-    x, y, w, h = ROI
-    dx, dy = path[11]
-    frame = shift(img, dx, dy)
-    frame[int(y + dy):int(y + dy + h), int(x + dx):int(x + dx + w // 4)] = 40
-    work = al.work_image(frame)
-
-    def seen(A: np.ndarray) -> float:
-        return tr._occlusion_at(frame, al.to_work(A), al.occlusion(work, al.to_work(A)))
-
-    true = similarity(*(path[11] - path[10]), 0.0, 1.0) @ st.A
+    tr, frame, work, true, seen = coat_over_a_quarter(img)
     for d in (1.5, 2.5):
         pulled = similarity(d, 0.0, 0.0, 1.0) @ true
         assert seen(pulled) <= seen(true)  # OP_t alone would take the pulled alignment
