@@ -395,15 +395,17 @@ def test_ecc_filter_size_is_checked():
 
 
 def test_intensity_refinement_brings_back_a_homography_that_feature_lk_leaves_pixels_off_on_a_weak_texture():
-    # marble (procedural) under a 1.1× exposure change: the 8-parameter feature LK ends pixels off; the intensity
-    # refinement (intensity_ic.py) from its answer
-    # recovers the warp when that is within its reach (aligner.INTENSITY_REFINE_MAX_PX, 2 work px; 1 refused it)
+    # marble (procedural) under a 1.1× exposure change: the 8-parameter feature LK on the frame as it comes ends pixels
+    # off; the intensity refinement (intensity_ic.py) from its answer recovers the warp when that is within its reach
+    # (aligner.INTENSITY_REFINE_MAX_PX, 2 work px; 1 refused it). With the frame scaled to the template's exposure
+    # first (normalise_lk_exposure, the default) the feature LK itself ends within 0.5 px
     from hvs_sim.scene.textures import natural_texture
 
     img = natural_texture("marble", W, H, seed=5)
     out = {}
-    for refine in (False, True):
-        tracker = make_tracker("deep_lk", warp="homography", refine_intensity=refine)
+    for refine in (False, True, "normalised"):
+        tracker = make_tracker("deep_lk", warp="homography", refine_intensity=refine is True,
+                               normalise_lk_exposure=refine == "normalised")
         tracker.init(img, ROI)
         errs = []
         for k in range(3):
@@ -421,3 +423,4 @@ def test_intensity_refinement_brings_back_a_homography_that_feature_lk_leaves_pi
     # LK left them (an occluder's pull is what the cap is for)
     assert out[False][1] > 4.0 and out[True][1] < 0.5, out
     assert np.all(out[True] <= out[False] + 1e-9) and out[False].min() > 2.0, out
+    assert np.all(out["normalised"] < 0.5), out
