@@ -271,6 +271,7 @@ def test_an_exposure_drift_does_not_move_the_feature_lk_on_a_low_contrast_target
         tk = tr.update(np.clip(shifted, 0, 255).astype(np.uint8))
         return tk.mode, float(np.linalg.norm(tk.center - (c + (dx, dy))))
 
+    assert not make_tracker("hybrid_paper").aligner.config.normalise_lk_exposure  # the paper's LK: the frame as it comes
     raw = []
     for name, seed in (("foliage", 2), ("fabric", 1)):
         tex = _frame(name, seed).astype(np.float32)

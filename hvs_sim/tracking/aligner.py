@@ -8,8 +8,9 @@ frame-from-template matrices: `A` at full resolution, `A_work` at working resolu
 the template and divided by ρ (half its larger side).
 
 The public API (used by the trackers and by `learn/data.py` alike):
-`set_template`, `work_image`, `to_work`/`to_full`, `coarse`, `lk`, `align`, `occlusion`, `perspective`,
-`residual_inputs`, `refine`, `residual_improves`, and the template geometry (`rho`, `N`, `c_work`).
+`set_template`, `work_image`, `to_work`/`to_full`, `coarse`, `lk`, `align`, `occlusion`, `exposure_at`,
+`fits_better`, `perspective`, `residual_inputs`, `refine`, `residual_improves`, and the template geometry (`rho`, `N`,
+`c_work`).
 """
 
 from __future__ import annotations
@@ -233,7 +234,7 @@ class Aligner:
         per-pixel ratios, occlusion.py: an occluder's pixels and a seed a few pixels off spread their ratios
         away from it)."""
         patch, inside = aligned_patch(work, A_work, self.t_origin, (self.th, self.tw))
-        return self.reference.gain(patch, inside)
+        return self.reference.trusted_gain(patch, inside)
 
     def fits_better(self, work: np.ndarray, A_work: np.ndarray, B_work: np.ndarray, visible: float) -> bool:
         """Whether the template fits the frame better at B_work than at A_work: the mean absolute grey residual,
@@ -241,15 +242,16 @@ class Aligner:
         trimmed residuals). An occluder's pixels fit badly at both poses and are trimmed, so the visible target's
         pixels decide, its edges included; OP_t's τ = 30 is blind to a few pixels' misalignment of a low-contrast
         target."""
-        fits = []
+        residuals = []
         for A in (A_work, B_work):
             patch, inside = aligned_patch(work, A, self.t_origin, (self.th, self.tw))
-            r = np.abs(patch.astype(np.float32) - np.float32(self.reference.gain(patch, inside)) * self.reference.t32)
-            r = np.where(inside, r, np.inf).ravel()
-            k = round(float(np.clip(visible, 0.0, 1.0)) * r.size)
-            if k < 1:
-                return False
-            fits.append(float(np.mean(np.partition(r, k - 1)[:k])))
+            g = np.float32(self.reference.trusted_gain(patch, inside))
+            residuals.append(np.abs(patch.astype(np.float32) - g * self.reference.t32)[inside])
+        # the share is of the pixels both poses keep inside the frame: one pose's pixels off the frame are not a misfit
+        k = round(float(np.clip(visible, 0.0, 1.0)) * min(r.size for r in residuals))
+        if k < 1:
+            return False
+        fits = [float(np.mean(np.partition(r, k - 1)[:k])) for r in residuals]
         return fits[1] < fits[0]
 
     def occlusion(self, work: np.ndarray, A_work: np.ndarray) -> float:

@@ -57,7 +57,7 @@ class DeepLKConfig:
     normalise_exposure: bool = True
     # the feature LK sees the frame scaled to the template's exposure (Aligner.lk; False: as it comes, as the
     # paper): VGG features are not invariant to a gain, and on a low-contrast target a 20 % exposure drift
-    # moved LK's optimum by 5–10 px
+    # moved LK's optimum by 6–15 px
     normalise_lk_exposure: bool = True
     # the warp the feature LK estimates: "similarity" (the paper's: translation, roll, scale) or
     # "homography" (a plane in perspective: its four corners are true perspective corners, so a

@@ -130,8 +130,8 @@ class HybridConfig:
     # whose alignment is the plane's own
     perspective: bool = True
     # an alignment of a partly covered static target that the surroundings' motion since the frame before contradicts
-    # (PULL_CHECK_*) and that sees the target less well (OP_t) than their pose was pulled by the occluder: the frame is
-    # not aligned, and the surroundings carry the estimate (HybridTracker._pulled). False: every alignment is taken
+    # (PULL_CHECK_*) and that fits the template worse than their pose (Aligner.fits_better) was pulled by the occluder:
+    # the frame is not aligned, and the surroundings carry the estimate (HybridTracker._pulled). False: all are taken
     pull_check: bool = True
     reanchor: bool = True  # after predictor-only frames, measure against aligned keyframes (KeyframeAnchor)
     # verified re-acquisition (a change to the paper): an alignment further than `reacquire_px` (plus

@@ -156,6 +156,13 @@ class OcclusionReference:
         # np.median's float32 value, and its float32 exp, without np.median's generic-axis overhead
         return float(np.exp(np.float32(median_1d(near)))) if near.size else 1.0
 
+    def trusted_gain(self, patch: np.ndarray, inside: np.ndarray | None = None) -> float:
+        """The exposure gain where at least MIN_SUPPORT of the pixels agree with it (within τ), else 1: over a
+        mostly covered target the mode of the ratios can be the occluder's."""
+        g = self.gain(patch, inside)
+        return g if 1.0 - self._differs(patch.astype(np.float32), self.t32 * np.float32(g), inside) >= MIN_SUPPORT \
+            else 1.0
+
     def _differs(self, p32: np.ndarray, ref: np.ndarray, inside: np.ndarray | None) -> float:
         diff = np.abs(p32 - ref) > self.tau
         if diff.ndim == 3:  # colour: a pixel differs when any channel does

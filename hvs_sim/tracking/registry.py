@@ -20,7 +20,8 @@ class TrackerSpec:
 TRACKERS: dict[str, TrackerSpec] = {
     "hybrid": TrackerSpec("hybrid", {}, "the hybrid as shipped: global match, exposure-normalised colour OP_t gate, "
                           "feature LK, verified re-acquisition, scene motion, keyframe anchor, GRU", "#d62728"),
-    "deep_lk": TrackerSpec("deep_lk", {"residual": False}, "the paper's Deep LK baseline (every frame aligned)",
+    "deep_lk": TrackerSpec("deep_lk", {"residual": False}, "the paper's Deep LK baseline (every frame aligned; its LK "
+                           "and OP_t exposure-normalised)",
                            "#1f77b4"),
     "deep_lk_residual": TrackerSpec("deep_lk", {"residual": True, "verify_residual": False},
                                     "Deep LK + the residual regressor, always applied (the paper's Deep LK+Δ)",
