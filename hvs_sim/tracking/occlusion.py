@@ -156,12 +156,17 @@ class OcclusionReference:
         # np.median's float32 value, and its float32 exp, without np.median's generic-axis overhead
         return float(np.exp(np.float32(median_1d(near)))) if near.size else 1.0
 
-    def trusted_gain(self, patch: np.ndarray, inside: np.ndarray | None = None) -> float:
-        """The exposure gain where at least MIN_SUPPORT of the pixels agree with it (within τ), else 1: over a
-        mostly covered target the mode of the ratios can be the occluder's."""
+    def _normalised(self, patch: np.ndarray, p32: np.ndarray, inside: np.ndarray | None) -> tuple[float, float]:
+        """The exposure gain, and OP_t against the template scaled by it. The gain is trusted where at least
+        MIN_SUPPORT of the pixels agree with it (1 − OP_t): over a mostly covered target the mode can be the
+        occluder's."""
         g = self.gain(patch, inside)
-        return g if 1.0 - self._differs(patch.astype(np.float32), self.t32 * np.float32(g), inside) >= MIN_SUPPORT \
-            else 1.0
+        return g, self._differs(p32, self.t32 * np.float32(g), inside)
+
+    def trusted_gain(self, patch: np.ndarray, inside: np.ndarray | None = None) -> float:
+        """The exposure gain where it is trusted (_normalised), else 1."""
+        g, op = self._normalised(patch, patch.astype(np.float32), inside)
+        return g if 1.0 - op >= MIN_SUPPORT else 1.0
 
     def _differs(self, p32: np.ndarray, ref: np.ndarray, inside: np.ndarray | None) -> float:
         diff = np.abs(p32 - ref) > self.tau
@@ -178,7 +183,7 @@ class OcclusionReference:
         raw = self._differs(p32, self.t32, inside)
         if not self.normalise:
             return raw
-        op = self._differs(p32, self.t32 * np.float32(self.gain(patch, inside)), inside)
+        _, op = self._normalised(patch, p32, inside)
         return op if 1.0 - op >= MIN_SUPPORT else max(op, raw)
 
 
