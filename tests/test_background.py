@@ -560,7 +560,7 @@ def test_an_alignment_an_occluder_pulled_is_not_taken(check, flag_frame, monkeyp
 def test_a_pull_on_a_low_contrast_target_is_seen_where_op_t_is_blind(flag_frame, monkeypatch):
     """The same coat and pull on the flags at a sixth of their contrast: OP_t no longer rises at the pulled pose (the
     misalignment stays under τ), but the template's best-fitting visible pixels fit worse there than at the
-    surroundings' pose (Aligner.fits_better), so the alignment is refused; where the surroundings are the wrong ones
+    surroundings' pose (Aligner.shows_clearly), so the alignment is refused; where the surroundings are the wrong ones
     it is taken."""
     img = np.clip(128 + 0.15 * (flag_frame.astype(np.float32) - flag_frame.mean()), 0, 255).astype(np.uint8)
     tr, frame, work, true, seen = coat_over_a_quarter(img)

@@ -9,7 +9,7 @@ the template and divided by ρ (half its larger side).
 
 The public API (used by the trackers and by `learn/data.py` alike):
 `set_template`, `work_image`, `to_work`/`to_full`, `coarse`, `lk`, `align`, `occlusion`, `exposure_at`,
-`fits_better`, `perspective`, `residual_inputs`, `refine`, `residual_improves`, and the template geometry (`rho`, `N`,
+`shows_clearly`, `perspective`, `residual_inputs`, `refine`, `residual_improves`, and the template geometry (`rho`, `N`,
 `c_work`).
 """
 
@@ -31,7 +31,7 @@ from hvs_sim.tracking.global_match import GlobalMatcher, Match
 from hvs_sim.tracking.intensity_ic import IntensityIC
 from hvs_sim.tracking.nets.vgg import vgg16_pool2
 from hvs_sim.tracking.occlusion import OcclusionReference, aligned_patch
-from hvs_sim.tracking.warp import apply, is_affine, matrix_to_pose, pose_to_matrix, translate
+from hvs_sim.tracking.warp import apply, fit_similarity, is_affine, matrix_to_pose, pose_to_matrix, translate
 
 MIN_CROP = 16  # work px: a crop smaller than this on a side means the target is (nearly) off the frame
 MIN_VALID = 0.3  # share of template points that must land inside the crop for an alignment to count
@@ -99,11 +99,23 @@ class Aligner:
         # wall ms of the stages of the current frame (VGG "features", feature "lk", ECC "refine");
         # trackers clear it per frame and report it (HybridTracker.stage_ms): two clock reads a stage
         self.stage_ms: dict[str, float] = {}
+        self.shape: np.ndarray | None = None  # set_shape
 
     def _timed(self, stage: str, t0: float) -> None:
         self.stage_ms[stage] = self.stage_ms.get(stage, 0.0) + 1e3 * (time.perf_counter() - t0)
 
     # ----------------------------------------------------------------- images and frames
+
+    def set_shape(self, C: np.ndarray | None) -> None:
+        """The target's perspective beside the similarity (`shape`, work px, template frame): the LK aligns the family
+        S·shape and returns S (HybridConfig.lk_perspective). From a correction C (full res, the template's frame) less
+        its own similarity, which is the estimate's to carry: left in C, the two traded off and drifted against each
+        other from frame to frame. None: the similarity alone."""
+        if C is None:
+            self.shape = None
+            return
+        C_work = self.to_work(C)
+        self.shape = np.linalg.solve(fit_similarity(self.t_corners, apply(C_work, self.t_corners)), C_work)
 
     def work_image(self, frame: np.ndarray) -> np.ndarray:
         grey = to_grey(frame)
@@ -172,6 +184,7 @@ class Aligner:
     def set_template(self, frame: np.ndarray, roi, intensity: bool = False) -> np.ndarray:
         """Take the template from `frame` at `roi`; returns the grey working image of that frame. `intensity`: also
         for a similarity, build the full-resolution intensity model that `perspective` refines on."""
+        self.shape = None  # a new template's own view
         work = self.work_image(frame)
         x, y, w, h = roi
         self.template_full = self.full_grey[y:y + h, x:x + w].astype(np.float32)
@@ -236,23 +249,36 @@ class Aligner:
         patch, inside = aligned_patch(work, A_work, self.t_origin, (self.th, self.tw))
         return self.reference.trusted_gain(patch, inside)
 
-    def fits_better(self, work: np.ndarray, A_work: np.ndarray, B_work: np.ndarray, visible: float) -> bool:
-        """Whether the template fits the frame better at B_work than at A_work: the mean absolute grey residual,
-        after each pose's exposure gain, over the share `visible` of the template's pixels that fit best (least
-        trimmed residuals). An occluder's pixels fit badly at both poses and are trimmed, so the visible target's
-        pixels decide, its edges included; OP_t's τ = 30 is blind to a few pixels' misalignment of a low-contrast
-        target."""
+    def shows_clearly(self, work: np.ndarray, A_work: np.ndarray, B_work: np.ndarray, visible: float,
+                      evidence: float) -> bool:
+        """Whether the frame shows the template clearly better at A_work than at B_work. Fit: the mean absolute grey
+        residual, after each pose's exposure gain, over the share `visible` of the template's pixels that fit best
+        (least trimmed residuals): an occluder's pixels fit badly at both poses and are trimmed, so the visible
+        target's pixels decide, its edges included (OP_t's τ = 30 is blind to a few pixels' misalignment of a
+        low-contrast target). Clearly: by at least the share `evidence` of what the template tells the two poses apart by,
+        the same trimmed mean of its differences from itself moved from one pose to the other. Where A is right, B's
+        fit is worse by about that much; where the two fits are closer than that, the frame does not say which is
+        right: on a smooth photo a coat's edge over a quarter of it pulled the alignment 4 px and fitted 0.3 grey
+        levels better, where the template differs from itself 4 px away by 1.3 (photos' dev split, `long` ascent).
+        Both poses carry the target's perspective (`shape`)."""
+        shape = np.eye(3) if self.shape is None else self.shape
+        t32 = self.reference.t32
         residuals = []
         for A in (A_work, B_work):
-            patch, inside = aligned_patch(work, A, self.t_origin, (self.th, self.tw))
+            patch, inside = aligned_patch(work, A @ shape, self.t_origin, (self.th, self.tw))
             g = np.float32(self.reference.trusted_gain(patch, inside))
-            residuals.append(np.abs(patch.astype(np.float32) - g * self.reference.t32)[inside])
+            residuals.append(np.abs(patch.astype(np.float32) - g * t32)[inside])
+        # the template moved from A to B, in its own frame: what a misfit of that size looks like
+        to_patch = np.array([[1, 0, -self.t_origin[0]], [0, 1, -self.t_origin[1]], [0, 0, 1.0]])
+        moved, inside = aligned_patch(t32, to_patch @ np.linalg.solve(A_work @ shape, B_work @ shape),
+                                      self.t_origin, (self.th, self.tw))
+        residuals.append(np.abs(moved - t32)[inside])
         # the share is of the pixels both poses keep inside the frame: one pose's pixels off the frame are not a misfit
         k = round(float(np.clip(visible, 0.0, 1.0)) * min(r.size for r in residuals))
         if k < 1:
             return False
-        fits = [float(np.mean(np.partition(r, k - 1)[:k])) for r in residuals]
-        return fits[1] < fits[0]
+        fit_a, fit_b, apart = (float(np.mean(np.partition(r, k - 1)[:k])) for r in residuals)
+        return fit_b - fit_a > evidence * apart
 
     def occlusion(self, work: np.ndarray, A_work: np.ndarray) -> float:
         patch, inside = aligned_patch(work, A_work, self.t_origin, (self.th, self.tw))
@@ -323,14 +349,15 @@ class Aligner:
         """Plain feature LK from A_work on a crop around it, or None when the crop is too small
         (target off the frame). With `normalise_lk_exposure` the crop is first divided by the exposure gain
         measured at A_work (`exposure_at`)."""
-        x0, y0, x1, y1 = self.crop_box(apply(A_work, self.t_corners), work.shape)
+        W = A_work if self.shape is None else A_work @ self.shape
+        x0, y0, x1, y1 = self.crop_box(apply(W, self.t_corners), work.shape)
         if x1 - x0 < MIN_CROP or y1 - y0 < MIN_CROP:
             return None
         gain = self.exposure_at(work, A_work) if self.config.normalise_lk_exposure else 1.0
         feats = self.features(work, x0, y0, x1, y1, gain)
         origin = np.array([x0, y0], float)
         t0 = time.perf_counter()
-        res = self.lk_engine.align(feats, origin, (y1 - y0, x1 - x0), self.N @ A_work @ self.N_inv)
+        res = self.lk_engine.align(feats, origin, (y1 - y0, x1 - x0), self.N @ W @ self.N_inv)
         self._timed("lk", t0)
         return LKOutput(res, feats, origin)
 
@@ -392,6 +419,9 @@ class Aligner:
             if used:
                 res.M = M_ref
         A_new = self.N_inv @ res.M @ self.N
+        if self.shape is not None and np.all(np.isfinite(A_new)):  # the similarity S of the family S·shape
+            pts = np.vstack([self.t_corners, self.c_work[None]])
+            A_new = fit_similarity(pts, apply(A_new @ np.linalg.inv(self.shape), pts))
         if self.config.warp == "homography" and self.config.refine_intensity and np.all(np.isfinite(A_new)):
             t0 = time.perf_counter()
             A_ecc = self.refine_intensity(A_new)

@@ -170,6 +170,7 @@ class HybridTracker(Tracker):
         image, where the identity holds)."""
         self.state.A = A.copy()
         self._perspectives.clear()  # measured on the target again before it is reported (_reported)
+        self.aligner.set_shape(None)
         self.state.scene_held = False  # a pose given from outside, not measured on these frames
         for s in self.sources:
             s.reset(self.state)
@@ -282,7 +283,9 @@ class HybridTracker(Tracker):
         offset = matrix_to_pose(A, st.center0)[:2] - matrix_to_pose(st.A, st.center0)[:2]
         measured = (self.target_motion == "static" and not (st.is_lost or st.after_cut) and st.scene_held
                     and st.drift_run <= SURROUNDINGS_GUESSES)
-        if measured and (np.linalg.norm(offset) <= c.reacquire_px + c.reacquire_drift_px * st.since_aligned
+        # the estimate's drift: reacquire_drift_px a frame, with a look-alike in view a guessed frame (lookalike_drift)
+        drifted = st.guessed if (c.lookalike_drift and not unique) else st.since_aligned
+        if measured and (np.linalg.norm(offset) <= c.reacquire_px + c.reacquire_drift_px * drifted
                          or self._surroundings_agree(A, work)):
             st.jump_seen(None, 0.0)
             return True
@@ -299,11 +302,12 @@ class HybridTracker(Tracker):
     def _pulled(self, frame: np.ndarray, A: np.ndarray, occ: float, work: np.ndarray) -> bool:
         """Whether an occluder pulled this alignment (HybridConfig.pull_check): a static target aligned on the frame
         before, partly covered now (OP_t over PULL_CHECK_OCC), aligned more than PULL_CHECK_PX from where the
-        surroundings' motion since then puts it, and fitting the template's visible pixels worse there than at the
-        surroundings' pose (Aligner.fits_better). Robust LK still moved 0.8-1.7 px a frame towards a coat's edge over
-        2-14 % of the target, and the chain carried that through the coat's 3.5 s stay (photos' dev split, `long` ascent
-        of seed 2027: 2.7 px at OP_t 0.18). The image decides because either can be wrong: the surroundings' hop, not
-        gated here, can be the coat's (13 px); OP_t could not tell a hand's 3.5 px pull on a smooth photo."""
+        surroundings' motion since then puts it, and its visible pixels fitting there no better than at the
+        surroundings' pose (Aligner.shows_clearly, HybridConfig.pull_evidence). Robust LK still moved 0.8-1.7 px a
+        frame towards a coat's edge over 2-14 % of the target, and the chain carried that through the coat's 3.5 s
+        stay (photos' dev split, `long` ascent of seed 2027: 2.7 px at OP_t 0.18). The image decides because either can
+        be wrong: the surroundings' hop, not gated here, can be the coat's (13 px); OP_t could not tell a hand's 3.5 px
+        pull on a smooth photo."""
         if not (self.hconfig.pull_check and self.target_motion == "static" and occ > PULL_CHECK_OCC
                 and self.state.since_aligned == 0 and self.scene_motion is not None):
             return False
@@ -312,7 +316,7 @@ class HybridTracker(Tracker):
             return False
         B = self.aligner.to_work(found[0])
         visible = 1.0 - max(occ, self._occlusion_measured(frame, work, B))
-        return self.aligner.fits_better(work, self.aligner.to_work(A), B, visible)
+        return not self.aligner.shows_clearly(work, self.aligner.to_work(A), B, visible, self.hconfig.pull_evidence)
 
     def _surroundings_miss(self, A: np.ndarray, work: np.ndarray) -> tuple[np.ndarray, float] | None:
         """The pose the surroundings' motion since the last measured frame gives (SceneMotionSource.measure, peeking),
@@ -375,6 +379,7 @@ class HybridTracker(Tracker):
             return est
         if est.mode == Mode.LOST:
             self._perspectives.clear()
+            self.aligner.set_shape(None)
             return est
         if est.mode == Mode.ALIGN and est.occlusion <= PERSPECTIVE_MAX_OCC:
             H = self.aligner.perspective(self.aligner.to_work(est.A))
@@ -384,6 +389,8 @@ class HybridTracker(Tracker):
             return est
         corners = np.median(np.stack(self._perspectives), axis=0)
         C = cv2.getPerspectiveTransform(self.corners0.astype(np.float32), corners.astype(np.float32))
+        if self.hconfig.lk_perspective:
+            self.aligner.set_shape(C)
         return dataclasses.replace(est, A=est.A @ C)
 
     def _estimate(self, frame) -> Estimate:

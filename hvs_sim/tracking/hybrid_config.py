@@ -129,10 +129,20 @@ class HybridConfig:
     # carry stays the similarity. False: the similarity is reported, as in the paper. Moot with warp="homography",
     # whose alignment is the plane's own
     perspective: bool = True
+    # ... and the feature LK then aligns the similarity under that perspective (the family S·C, C the reported
+    # correction less its own similarity; Aligner.shape): a similarity alone fits a tilted target best at a place
+    # that depends on which part of it is visible, so an occluder over part of it moved the alignment by pixels with
+    # no pull of its texture at all (photos' dev split, `long` ascent). False: the similarity alone, as in the paper
+    lk_perspective: bool = True
     # an alignment of a partly covered static target that the surroundings' motion since the frame before contradicts
-    # (PULL_CHECK_*) and that fits the template worse than their pose (Aligner.fits_better) was pulled by the occluder:
-    # the frame is not aligned, and the surroundings carry the estimate (HybridTracker._pulled). False: all are taken
+    # (PULL_CHECK_*) and that does not fit the template better than their pose (pull_evidence) was pulled by the
+    # occluder: the frame is not aligned, and the surroundings carry the estimate (HybridTracker._pulled). False: all are taken
     pull_check: bool = True
+    # ... taken where the frame shows the template better at the alignment than at the surroundings' pose by more than
+    # this share of what the template itself tells the two poses apart by (Aligner.shows_clearly; where the alignment
+    # is right, about all of it). 0: any better fit. 0.5 refused a coat's 4 px pull on a smooth photo that fitted a
+    # little better, but also right alignments where the surroundings' hop was 1.5 px off (docs/results.md)
+    pull_evidence: float = 0.0
     reanchor: bool = True  # after predictor-only frames, measure against aligned keyframes (KeyframeAnchor)
     # verified re-acquisition (a change to the paper): an alignment further than `reacquire_px` (plus
     # `background_gate_px` per unmeasured frame, plus `reacquire_drift_px` per frame since the last
@@ -147,6 +157,11 @@ class HybridConfig:
     reacquire_drift_px: float = 0.5
     reacquire_margin: float = 0.1
     reacquire_frames: int = 3
+    # with a look-alike in view (the match not unique), a static target's re-acquisition near where the surroundings
+    # put it allows reacquire_drift_px only per frame the predictor guessed, not per frame their motion was measured
+    # on: a chain measured for 85 frames stayed within 0.6 px of the target, and a person wearing its picture 37 px
+    # away was within the 50 px the flat allowance gave (photos' dev split, `camo` ascent). False: per frame
+    lookalike_drift: bool = True
     # a static target's far jump that the surroundings contradict: while the frames since the last alignment were
     # measured on the surroundings (at most SURROUNDINGS_GUESSES predictor guesses, no seed), they say where the
     # target is, and a unique match far from there is a look-alike (clothing printed with the scene's own texture,
@@ -190,7 +205,8 @@ class HybridConfig:
     def __post_init__(self):
         check_flags(self, ("continuity", "colour_occlusion", "gate_after_alignment", "background", "reanchor",
                            "verify_reacquisition", "background_gate_continues", "background_gate_sway", "perspective",
-                           "pull_check"))
+                           "pull_check", "lk_perspective", "lookalike_drift"))
+        check_number("pull_evidence", self.pull_evidence, 0.0, 1.0)
         if not 0 < self.occlusion_gate <= 1:
             raise ConfigError(f"occlusion_gate must be in (0, 1], got {self.occlusion_gate}")
         if self.predictor not in PREDICTORS:

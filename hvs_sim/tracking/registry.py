@@ -32,7 +32,8 @@ TRACKERS: dict[str, TrackerSpec] = {
                                            "verify_residual": False, "normalise_exposure": False,
                                            "normalise_lk_exposure": False,
                                            "verify_reacquisition": False,
-                                           "gate_after_alignment": False, "perspective": False},
+                                           "gate_after_alignment": False, "perspective": False,
+                                           "lk_perspective": False},
                                 "the hybrid as published: grey raw OP_t, GRU only, residual always applied, the "
                                 "similarity reported",
                                 "#9467bd"),
@@ -87,6 +88,16 @@ TRACKERS: dict[str, TrackerSpec] = {
     "hybrid_unchecked_alignment": TrackerSpec("hybrid", {"pull_check": False},
                                               "every alignment of a partly covered target is taken, not checked "
                                               "against the surroundings' motion", "#6b6ecf"),
+    "hybrid_clear_pull": TrackerSpec("hybrid", {"pull_evidence": 0.5},
+                                     "an alignment the surroundings contradict is taken only where it fits the "
+                                     "template clearly better than their pose, not wherever better", "#3182bd"),
+    "hybrid_flat_lk": TrackerSpec("hybrid", {"lk_perspective": False},
+                                  "the feature LK aligns the similarity alone (the paper's), not the similarity under "
+                                  "the target's reported perspective", "#e6550d"),
+    "hybrid_flat_drift": TrackerSpec("hybrid", {"lookalike_drift": False},
+                                     "a re-acquisition near the surroundings' estimate may have drifted by the same "
+                                     "allowance per frame with a look-alike in view, not only per frame guessed",
+                                     "#756bb1"),
     "hybrid_first_consensus": TrackerSpec("hybrid", {"background_config": {"runner_up": False}},
                                           "a hop whose consensus the gate refuses offers no other, not the consensus "
                                           "among the points the first did not hold", "#9c9ede"),

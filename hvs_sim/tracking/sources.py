@@ -322,6 +322,7 @@ class HybridState:
     predict_run: int = 0  # consecutive frames with neither an alignment nor a measurement
     drift_run: int = 0  # frames the predictor alone has moved the estimate since it was last anchored
     since_aligned: int = 0  # frames since the target was last aligned
+    guessed: int = 0  # ... of which the predictor moved the estimate (or it was lost): not measured on the frames
     # the estimate at the last alignment: its θ and s were measured on the target itself, unlike a surroundings'
     # measurement since, which an occluder covering them can skew (Aligner.align's `aligned`)
     aligned_A: np.ndarray | None = None
@@ -358,7 +359,7 @@ class HybridState:
 
     def aligned(self, work: np.ndarray, A: np.ndarray, sources: list[MotionSource]) -> None:
         self.A = self.aligned_A = A
-        self.predict_run = self.drift_run = self.since_aligned = 0
+        self.predict_run = self.drift_run = self.since_aligned = self.guessed = 0
         self.jump, self.jump_frames = None, 0
         self.after_cut = self.is_lost = False
         self.scene_held = True
@@ -385,6 +386,7 @@ class HybridState:
         self.predict_run += 1
         self.drift_run += 1
         self.since_aligned += 1
+        self.guessed += 1
         for s in sources:
             s.on_predicted(work, self)
 
