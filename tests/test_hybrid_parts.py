@@ -43,6 +43,9 @@ def test_registry_names_build_with_distinct_colours_and_unknown_settings_are_cle
         make_tracker("hybrid", gate_after_alignment="no")
     with pytest.raises(ConfigError, match="ratio"):
         make_tracker("sift", ratioo=0.5)
+    with pytest.raises(ConfigError, match="lk_perspective=True cannot run with the residual regressor"):
+        make_tracker("hybrid", residual=True)
+    assert not make_tracker("hybrid_residual").hconfig.lk_perspective  # the regressor reads the similarity LK's answers
 
 
 def test_mode_is_an_enum_that_reads_as_its_string():
@@ -308,7 +311,7 @@ def test_the_feature_lk_under_the_targets_perspective_keeps_its_place_whichever_
                         [ROI[0], ROI[1] + ROI[3] - 1]], float)
     seen = apply(H, corners)
     true_centre = apply(H, c[None])[0]
-    C = np.linalg.solve(fit_similarity(corners, seen), H)  # the perspective, less its own similarity
+    C = np.linalg.solve(fit_similarity(corners, seen), H)  # the perspective (set_shape takes its similarity out)
     left, right = seen[:, 0].min(), seen[:, 0].max()
     errors = {None: [], "shape": []}
     for hidden in (None, slice(None, int(left + 0.35 * (right - left))), slice(int(left + 0.65 * (right - left)), None)):
@@ -317,7 +320,7 @@ def test_the_feature_lk_under_the_targets_perspective_keeps_its_place_whichever_
             f[:, hidden] = 128
         work = al.work_image(f)
         for shape, found in errors.items():
-            al.shape = None if shape is None else al.to_work(C)
+            al.set_shape(None if shape is None else C)
             A = al.align(work, np.eye(3)).A_work
             assert A is not None
             A = al.to_full(A if shape is None else A @ al.shape)

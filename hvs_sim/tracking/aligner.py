@@ -268,17 +268,20 @@ class Aligner:
             patch, inside = aligned_patch(work, A @ shape, self.t_origin, (self.th, self.tw))
             g = np.float32(self.reference.trusted_gain(patch, inside))
             residuals.append(np.abs(patch.astype(np.float32) - g * t32)[inside])
-        # the template moved from A to B, in its own frame: what a misfit of that size looks like
-        to_patch = np.array([[1, 0, -self.t_origin[0]], [0, 1, -self.t_origin[1]], [0, 0, 1.0]])
-        moved, inside = aligned_patch(t32, to_patch @ np.linalg.solve(A_work @ shape, B_work @ shape),
-                                      self.t_origin, (self.th, self.tw))
-        residuals.append(np.abs(moved - t32)[inside])
         # the share is of the pixels both poses keep inside the frame: one pose's pixels off the frame are not a misfit
         k = round(float(np.clip(visible, 0.0, 1.0)) * min(r.size for r in residuals))
         if k < 1:
             return False
-        fit_a, fit_b, apart = (float(np.mean(np.partition(r, k - 1)[:k])) for r in residuals)
-        return fit_b - fit_a > evidence * apart
+        fit_a, fit_b = (float(np.mean(np.partition(r, k - 1)[:k])) for r in residuals)
+        if evidence == 0.0:
+            return fit_b >= fit_a
+        # the template moved from A to B, in its own frame: what a misfit of that size looks like
+        to_patch = np.array([[1, 0, -self.t_origin[0]], [0, 1, -self.t_origin[1]], [0, 0, 1.0]])
+        moved, inside = aligned_patch(t32, to_patch @ np.linalg.solve(A_work @ shape, B_work @ shape),
+                                      self.t_origin, (self.th, self.tw))
+        d = np.abs(moved - t32)[inside]
+        apart = float(np.mean(np.partition(d, min(k, d.size) - 1)[:k])) if d.size else 0.0
+        return fit_b - fit_a >= evidence * apart
 
     def occlusion(self, work: np.ndarray, A_work: np.ndarray) -> float:
         patch, inside = aligned_patch(work, A_work, self.t_origin, (self.th, self.tw))

@@ -1,34 +1,31 @@
 """The paper's hybrid tracker: global match → occlusion gate → deep LK + residual, or motion prediction.
 
-Per frame: NCC over the whole frame gives a coarse centre and a score; OP_t is measured on the
-patch at that centre and on the patch at the current estimate, and the better of the two is kept
-(see DeepLKTracker.coarse). If OP_t < gate (40 %) and the match score ≥ 0.6 (or, with
-`continuity`, the seed is the current estimate) the frame is aligned (feature LK, then
-the residual regressor) and its translation joins the predictor's history; otherwise the predictor
-(GRU by default) extrapolates the translation, holding θ and s. With `gate_after_alignment` (a change
-to the paper, on by default) a confident seed whose OP_t fails the gate is aligned anyway, and OP_t
-at the aligned pose decides: a seed a few pixels off reads its misalignment as occlusion. Re-acquisition is automatic: the
-global match runs every frame, so the first frame that passes the gate is aligned again.
+Per frame: NCC over the whole frame gives a coarse centre and a score; OP_t is measured on the patch at that centre
+and on the patch at the current estimate, and the better of the two is kept (see DeepLKTracker.coarse). If OP_t < gate
+(40 %) and the match score ≥ 0.6 (or, with `continuity`, the seed is the current estimate) the frame is aligned
+(feature LK, then the residual regressor) and its translation joins the predictor's history; otherwise the predictor
+(GRU by default) extrapolates the translation, holding θ and s. With `gate_after_alignment` (a change to the paper, on
+by default) a confident seed whose OP_t fails the gate is aligned anyway, and OP_t at the aligned pose decides: a seed
+a few pixels off reads its misalignment as occlusion. Re-acquisition is automatic: the global match runs every frame,
+so the first frame that passes the gate is aligned again.
 
 Two changes to the paper in the predict path, both on by default and both measured (README, tracking benchmark;
 `background=False, colour_occlusion=False` is the paper's hybrid as published):
-- Predicting from the scene around the target (`background`, background.py): while the target is
-  hidden the wall around it usually is not, so the predict path first moves the target's last
-  aligned pose by the similarity motion of the surroundings since that frame. That measures the
-  camera's motion, where the GRU can only extrapolate it (hand-held tremor is not predictable over
-  a 1.8 s occlusion). The GRU (or the configured predictor) takes over on frames where the
-  surroundings give no trustworthy motion (a person filling the whole view), continuing from the
-  last background-based positions. After such predictor-only frames the chain would carry the
-  predictor's error to the end of the occlusion, so as soon as the wall shows again the frame is
-  measured against earlier aligned keyframes instead (`reanchor`, anchor.KeyframeAnchor).
+- Predicting from the scene around the target (`background`, background.py): while the target is hidden the wall
+  around it usually is not, so the predict path first moves the target's last aligned pose by the similarity motion of
+  the surroundings since that frame. That measures the camera's motion, where the GRU can only extrapolate it
+  (hand-held tremor is not predictable over a 1.8 s occlusion). The GRU (or the configured predictor) takes over on
+  frames where the surroundings give no trustworthy motion (a person filling the whole view), continuing from the last
+  background-based positions. After such predictor-only frames the chain would carry the predictor's error to the end
+  of the occlusion, so as soon as the wall shows again the frame is measured against earlier aligned keyframes instead
+  (`reanchor`, anchor.KeyframeAnchor).
 - OP_t over colour channels (`colour_occlusion`, occlusion.py): grey OP_t reported a flag half
   covered by a brown sleeve as clear, so LK aligned on the sleeve.
 
-Built from parts (ViSP-style composition rather than inheritance): an `Aligner` (global match, feature
-LK, residual), the OP_t gate, and motion sources tried in order on frames that are not aligned
-(sources.py: keyframe anchor → scene motion → predictor). `HybridState` holds everything that
-changes from frame to frame, and its four transitions — aligned, measured, predicted, lost — are
-the only way it changes.
+Built from parts (ViSP-style composition rather than inheritance): an `Aligner` (global match, feature LK, residual),
+the OP_t gate, and motion sources tried in order on frames that are not aligned (sources.py: keyframe anchor → scene
+motion → predictor). `HybridState` holds everything that changes from frame to frame, and its four transitions —
+aligned, measured, predicted, lost — are the only way it changes.
 
 A re-acquisition (after `lost`, a cut, or REACQUIRE_AFTER frames without an alignment) must pass several
 checks, not the NCC score alone: the whole aligned patch's NCC with the template within APPEARANCE_SLACK of this
@@ -38,12 +35,12 @@ look-alike beyond half the template's side, which also catches a kerb's look-ali
 look-alike 35 px along a weakly textured target after many predicted frames, which the predictor's growing bound
 used to take in. Every `lost` episode says why in the tracker's notes (`hvs-sim track` prints them).
 
-The extrapolating predictor is bounded: after `max_predict_frames` consecutive frames with neither
-an alignment nor a background measurement (default 45, 1.5 s at 30 Hz) the mode becomes "lost" and
-the estimate stops moving until re-acquisition. A scene cut (`cut_ncc`) and `max_unaligned_frames`
-without an alignment also end in "lost", whatever the surroundings say; so does `max_predict_frames` without an
-alignment while `auto` has not yet decided the target's motion (a target that moves or changes shape is not where
-its surroundings put it: the box would stay frozen on the background).
+The extrapolating predictor is bounded: after `max_predict_frames` consecutive frames with neither an alignment nor a
+background measurement (default 45, 1.5 s at 30 Hz) the mode becomes "lost" and the estimate stops moving until
+re-acquisition. A scene cut (`cut_ncc`) and `max_unaligned_frames` without an alignment also end in "lost", whatever
+the surroundings say; so does `max_predict_frames` without an alignment while `auto` has not yet decided the target's
+motion (a target that moves or changes shape is not where its surroundings put it: the box would stay frozen on the
+background).
 
 All of the above takes the target to be fixed in the scene (`target_motion="static"`, the servo loop's case). For
 footage whose target moves on its own, `"moving"` drops the surroundings (the predictor alone fills gaps, and a far
@@ -368,13 +365,13 @@ class HybridTracker(Tracker):
 
     def _reported(self, est: Estimate) -> Estimate:
         """The estimate as reported (HybridConfig.perspective). On an aligned frame with the target in full view
-        (PERSPECTIVE_MAX_OCC), the similarity's correction to the homography that Aligner.perspective measures there,
-        A⁻¹·H in the template's frame, joins the last PERSPECTIVE_HISTORY ones; the pose is reported with their
-        median (of where each puts the template's corners) until the next one (the estimate a chain or the predictor
-        carries is the similarity). A view's tilt changes slowly, while an occluder the occlusion test cannot see
-        pulls one frame's refinement: a look-alike 3.4 px (photos' dev split, `camo` on ascent of seed 7), a coat
-        arriving 0.9 px on the last frame before it covered the target, carried through its whole stay. `lost` and a
-        seed empty the history (the identity: the template's own view)."""
+        (PERSPECTIVE_MAX_OCC), the similarity's correction A⁻¹·H to the homography Aligner.perspective measures there
+        (in the template's frame) joins the last PERSPECTIVE_HISTORY ones; the pose is reported with their median (of
+        where each puts the template's corners) until the next one. A view's tilt changes slowly, while an occluder
+        the occlusion test cannot see pulls one frame's refinement (a look-alike 3.4 px: photos' dev split, `camo`
+        ascent of seed 7). `lost` and a seed empty the history. With lk_perspective the first correction after that is
+        measured on the similarity alone, the next ones on S (Aligner.set_shape): until they outnumber it, the median
+        mixes the two, a transient of up to the first correction's own similarity (not corrected)."""
         if not self._perspective_on:
             return est
         if est.mode == Mode.LOST:

@@ -207,6 +207,9 @@ class HybridConfig:
                            "verify_reacquisition", "background_gate_continues", "background_gate_sway", "perspective",
                            "pull_check", "lk_perspective", "lookalike_drift"))
         check_number("pull_evidence", self.pull_evidence, 0.0, 1.0)
+        if self.lk_perspective and self.deep.residual:
+            raise ConfigError("lk_perspective=True cannot run with the residual regressor, which was trained on the "
+                              "similarity LK's answers: set lk_perspective=False (as hybrid_residual does)")
         if not 0 < self.occlusion_gate <= 1:
             raise ConfigError(f"occlusion_gate must be in (0, 1], got {self.occlusion_gate}")
         if self.predictor not in PREDICTORS:
