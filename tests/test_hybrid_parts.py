@@ -44,8 +44,9 @@ def test_registry_names_build_with_distinct_colours_and_unknown_settings_are_cle
     with pytest.raises(ConfigError, match="ratio"):
         make_tracker("sift", ratioo=0.5)
     with pytest.raises(ConfigError, match="lk_perspective=True cannot run with the residual regressor"):
-        make_tracker("hybrid", residual=True)
-    assert not make_tracker("hybrid_residual").hconfig.lk_perspective  # the regressor reads the similarity LK's answers
+        make_tracker("hybrid", residual=True, lk_perspective=True)
+    assert make_tracker("hybrid").hconfig.lk_perspective  # the regressor reads the similarity LK's answers:
+    assert not make_tracker("hybrid", residual=True).hconfig.lk_perspective  # without it by default
 
 
 def test_mode_is_an_enum_that_reads_as_its_string():

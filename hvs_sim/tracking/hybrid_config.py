@@ -132,8 +132,9 @@ class HybridConfig:
     # ... and the feature LK then aligns the similarity under that perspective (the family S·C, C the reported
     # correction less its own similarity; Aligner.shape): a similarity alone fits a tilted target best at a place
     # that depends on which part of it is visible, so an occluder over part of it moved the alignment by pixels with
-    # no pull of its texture at all (photos' dev split, `long` ascent). False: the similarity alone, as in the paper
-    lk_perspective: bool = True
+    # no pull of its texture at all (photos' dev split, `long` ascent). False: the similarity alone, as in the paper.
+    # None: on, unless the residual regressor runs (trained on the similarity LK's answers; both together are refused)
+    lk_perspective: bool | None = None
     # an alignment of a partly covered static target that the surroundings' motion since the frame before contradicts
     # (PULL_CHECK_*) and that does not fit the template better than their pose (pull_evidence) was pulled by the
     # occluder: the frame is not aligned, and the surroundings carry the estimate (HybridTracker._pulled). False: all are taken
@@ -203,6 +204,8 @@ class HybridConfig:
         return cls(deep=deep, **{k: v for k, v in settings.items() if k in hybrid_keys})
 
     def __post_init__(self):
+        if self.lk_perspective is None:
+            object.__setattr__(self, "lk_perspective", not self.deep.residual)
         check_flags(self, ("continuity", "colour_occlusion", "gate_after_alignment", "background", "reanchor",
                            "verify_reacquisition", "background_gate_continues", "background_gate_sway", "perspective",
                            "pull_check", "lk_perspective", "lookalike_drift"))
