@@ -276,8 +276,7 @@ class Aligner:
         if evidence == 0.0:
             return fit_b >= fit_a
         # the template moved from A to B, in its own frame: what a misfit of that size looks like
-        to_patch = np.array([[1, 0, -self.t_origin[0]], [0, 1, -self.t_origin[1]], [0, 0, 1.0]])
-        moved, inside = aligned_patch(t32, to_patch @ np.linalg.solve(A_work @ shape, B_work @ shape),
+        moved, inside = aligned_patch(t32, translate(np.linalg.solve(A_work @ shape, B_work @ shape), -self.t_origin),
                                       self.t_origin, (self.th, self.tw))
         d = np.abs(moved - t32)[inside]
         apart = float(np.mean(np.partition(d, min(k, d.size) - 1)[:k])) if d.size else 0.0

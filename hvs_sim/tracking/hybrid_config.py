@@ -212,7 +212,7 @@ class HybridConfig:
         check_number("pull_evidence", self.pull_evidence, 0.0, 1.0)
         if self.lk_perspective and self.deep.residual:
             raise ConfigError("lk_perspective=True cannot run with the residual regressor, which was trained on the "
-                              "similarity LK's answers: set lk_perspective=False (as hybrid_residual does)")
+                              "similarity LK's answers: leave lk_perspective unset (off with the regressor) or set it False")
         if not 0 < self.occlusion_gate <= 1:
             raise ConfigError(f"occlusion_gate must be in (0, 1], got {self.occlusion_gate}")
         if self.predictor not in PREDICTORS:
