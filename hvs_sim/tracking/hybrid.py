@@ -31,7 +31,8 @@ A re-acquisition (after `lost`, a cut, or REACQUIRE_AFTER frames without an alig
 checks, not the NCC score alone: the whole aligned patch's NCC with the template within APPEARANCE_SLACK of this
 track's own confident alignments; and either a place the measured surroundings agree with, or a unique match (no
 look-alike beyond half the template's side, which also catches a kerb's look-alike along it) seen at one place on
-`reacquire_frames` consecutive frames. An unrelated shot's facade that scores 0.6–0.7 is refused; so is a
+`reacquire_frames` consecutive frames, or at once where the ring of picture around it is the template's view's and
+the estimate's is not (`context_check`, evidence.py: the estimate went wrong). An unrelated shot's facade that scores 0.6–0.7 is refused; so is a
 look-alike 35 px along a weakly textured target after many predicted frames, which the predictor's growing bound
 used to take in. Every `lost` episode says why in the tracker's notes (`hvs-sim track` prints them).
 
@@ -60,12 +61,13 @@ import numpy as np
 from hvs_sim.tracking.aligner import RECTIFY_DEG, RECTIFY_SCALE, Aligner
 from hvs_sim.tracking.base import Estimate, Mode, Tracker
 from hvs_sim.tracking.cuts import CUT_MIN_CONTRAST, CUT_THUMB, thumbnail  # noqa: F401 (importable from here)
+from hvs_sim.tracking.evidence import appearance, context_agreement
 from hvs_sim.tracking.hybrid_config import (  # noqa: F401  (HybridConfig and its constants, importable from here)
     APPEARANCE_HISTORY,
-    APPEARANCE_MIN_SHOWN,
     APPEARANCE_RECORD_OCC,
     APPEARANCE_SLACK,
     CONFIDENCE_HALF_LIFE,
+    CONTEXT_MARGIN,
     HOMOGRAPHY_LK_EPS,
     HYBRID_LK,
     HYBRID_LK_HOMOGRAPHY,
@@ -213,6 +215,8 @@ class HybridTracker(Tracker):
             st.jump_seen(None, 0.0)
             return False
         seen = st.jump_seen(offset, c.background_gate_px)
+        if self._context_overrules(work, A):
+            return True
         held = st.scene_held and st.drift_run <= SURROUNDINGS_GUESSES
         if c.surroundings_veto_frames and held and seen < c.surroundings_veto_frames:
             return False  # the surroundings, measured since the alignment, put the target elsewhere
@@ -245,26 +249,12 @@ class HybridTracker(Tracker):
         return (again.score - again.second >= c.reacquire_margin
                 and bool(np.linalg.norm(again.center - centre) <= c.reacquire_px * self.config.scale))
 
-    def _appearance(self, work: np.ndarray, A_work: np.ndarray) -> float:
-        """The template's NCC with the whole patch A_work aligns (grey, work px; -1 when under APPEARANCE_MIN_SHOWN of
-        it is in the frame). Unlike OP_t it is blind to contrast, and unlike a masked measure it counts every pixel:
-        a grey roof hatch and a grey facade differ by less than τ everywhere, and a half-faded copy of the target
-        keeps most pixels within τ, yet the NCC of either with the template is low."""
-        al = self.aligner
-        patch, inside = aligned_patch(work, A_work, al.t_origin, (al.th, al.tw))
-        if inside.mean() < APPEARANCE_MIN_SHOWN:
-            return -1.0
-        p, t = patch.astype(np.float32)[inside], al.template.astype(np.float32)[inside]
-        a, b = p - p.mean(), t - t.mean()
-        den = float(np.sqrt((a @ a) * (b @ b)))
-        return float(a @ b) / den if den > 1e-9 else -1.0
-
     def _looks_like_target(self, work: np.ndarray, A: np.ndarray) -> bool:
         """Whether the patch at A (full res) shows the target as this track's confident alignments showed it
-        (_appearance within APPEARANCE_SLACK of their median, and at least the match threshold)."""
+        (evidence.appearance within APPEARANCE_SLACK of their median, and at least the match threshold)."""
         seen = float(np.median(self._appearance_seen)) if self._appearance_seen else 1.0
         bar = max(self.config.match_threshold, seen - APPEARANCE_SLACK)
-        return self._appearance(work, self.aligner.to_work(A)) >= bar
+        return appearance(self.aligner, work, self.aligner.to_work(A)) >= bar
 
     def _reacquisition_verified(self, A: np.ndarray, m, work: np.ndarray | None, unique: bool) -> bool:
         """A re-acquisition (REACQUIRE_AFTER): the target found again after a loss, a cut or a long gap. Every
@@ -292,9 +282,22 @@ class HybridTracker(Tracker):
         # a static target's estimate follows the view, so the same place keeps its offset; a moving one's may not
         tolerance = c.background_gate_px if self.target_motion == "static" else c.reacquire_px
         seen = st.jump_seen(offset, tolerance)
+        if self._context_overrules(work, A):
+            return True
         if measured and c.surroundings_veto_frames and seen < c.surroundings_veto_frames:
             return False  # the surroundings, measured since the alignment, put the target elsewhere
         return seen >= c.reacquire_frames
+
+    def _context_overrules(self, work: np.ndarray | None, A: np.ndarray) -> bool:
+        """Whether the target's own surroundings, as the template's view showed them, put it at the unique far match A
+        and not at the estimate (HybridConfig.context_agree): the estimate went wrong, not the match, which is taken
+        then without the surroundings' veto or waiting `reacquire_frames` (at 10 fps a guessed estimate moved 10-15 px
+        a frame from the visible target, so its offset never held for three frames)."""
+        c, al = self.hconfig, self.aligner
+        if not c.context_check or work is None:
+            return False
+        there, here = (context_agreement(al, work, al.to_work(B)) for B in (A, self.state.A))
+        return there is not None and there >= c.context_agree and (here is None or there - here >= CONTEXT_MARGIN)
 
     def _pulled(self, frame: np.ndarray, A: np.ndarray, occ: float, work: np.ndarray) -> bool:
         """Whether an occluder pulled this alignment (HybridConfig.pull_check): a static target aligned on the frame
@@ -431,7 +434,7 @@ class HybridTracker(Tracker):
                 A_new = None
             if A_new is not None and self._verified(al.to_full(A_new), m, work):
                 if occ_aligned <= APPEARANCE_RECORD_OCC:  # what the target looks like when surely found
-                    self._appearance_seen.append(self._appearance(work, A_new))
+                    self._appearance_seen.append(appearance(al, work, A_new))
                 if self.target_motion is None:
                     self._judge_motion(work, al.to_full(A_new))
                 st.aligned(work, al.to_full(A_new), self.sources)

@@ -61,6 +61,9 @@ REACQUIRE_AFTER = 15
 # ... one of them: the template's NCC with the whole aligned patch (at least APPEARANCE_MIN_SHOWN of it in the frame),
 # within APPEARANCE_SLACK of what this track's own confident alignments measured
 APPEARANCE_SLACK = 0.15
+# the target's surroundings overrule the chain's veto only where they agree with the far match by this much more than
+# with the estimate (HybridConfig.context_agree): both rings share the picture's overall layout
+CONTEXT_MARGIN = 0.3
 APPEARANCE_MIN_SHOWN = 0.6
 APPEARANCE_HISTORY = 30  # confident alignments whose appearance NCC sets that reference (their median)
 APPEARANCE_RECORD_OCC = 0.1  # an alignment with OP_t up to this is confident enough to set it
@@ -169,6 +172,15 @@ class HybridConfig:
     # paused over the target), refused until seen on this many consecutive frames (3 s at 30 Hz: a chain that went
     # wrong is not held forever). 0: off (docs/results.md, harder occluders)
     surroundings_veto_frames: int = 90
+    # ... unless the target's own surroundings overrule the chain (`context_check`, HybridTracker._context_overrules): the ring of picture
+    # around the template, as its view showed it, agrees with the ring around the far match (NCC of the blurred rings,
+    # evidence.context_agreement) by at least this, and by CONTEXT_MARGIN more than with the ring around the estimate.
+    # A chain that took a leaving coat's motion for the scene's put the target 125 px off, and the visible target's
+    # unique match (ring 0.99 against -0.2 at the estimate) was held back to the end (photos' dev split at 10 fps,
+    # `long`); on the natural set's shirts printed with the scene the refused far matches' rings read at most 0.72.
+    # False: the veto holds on the frame count alone
+    context_check: bool = True
+    context_agree: float = 0.8
     # what the target does: "static" (fixed in the scene, the servo case: the surroundings' motion is its motion, and
     # a far jump must be verified), "moving" (it moves on its own, as footage often shows: a confident match is never
     # vetoed by the surroundings, and the predictor extrapolates the target's own motion), or "auto": "moving" for
@@ -208,8 +220,9 @@ class HybridConfig:
             object.__setattr__(self, "lk_perspective", not self.deep.residual)
         check_flags(self, ("continuity", "colour_occlusion", "gate_after_alignment", "background", "reanchor",
                            "verify_reacquisition", "background_gate_continues", "background_gate_sway", "perspective",
-                           "pull_check", "lk_perspective", "lookalike_drift"))
+                           "pull_check", "lk_perspective", "lookalike_drift", "context_check"))
         check_number("pull_evidence", self.pull_evidence, 0.0, 1.0)
+        check_number("context_agree", self.context_agree, -1.0, 1.0)
         if self.lk_perspective and self.deep.residual:
             raise ConfigError("lk_perspective=True cannot run with the residual regressor, which was trained on the "
                               "similarity LK's answers: leave lk_perspective unset (off with the regressor) or set it False")

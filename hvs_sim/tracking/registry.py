@@ -112,6 +112,9 @@ TRACKERS: dict[str, TrackerSpec] = {
     "hybrid_no_surroundings_veto": TrackerSpec("hybrid", {"surroundings_veto_frames": 0},
                                                "a far re-acquisition the surroundings contradict is not held back",
                                                "#b5cf6b"),
+    "hybrid_no_context": TrackerSpec("hybrid", {"context_check": False},
+                                     "the target's own surroundings never overrule the surroundings' veto on a far "
+                                     "re-acquisition", "#7b4173"),
     "hybrid_homography": TrackerSpec("hybrid", {"warp": "homography"},
                                      "the hybrid estimating a homography (true perspective corners, what six-DOF "
                                      "servoing uses) instead of the paper's similarity", "#17a768"),
