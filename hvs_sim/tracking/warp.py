@@ -143,9 +143,12 @@ def fit_turn(S: np.ndarray, src: np.ndarray, dst: np.ndarray, focal: float, cent
         m = hom @ cv2.Rodrigues(x[:3])[0].T
         return (math.exp(x[3]) * m[:, :2] / m[:, 2:] + x[4:] - q).ravel()
 
-    for _ in range(TURN_ITERS):
+    for i in range(TURN_ITERS):
         r = residual(x)
         J = np.stack([(residual(x + d) - r) / TURN_STEP for d in np.eye(6) * TURN_STEP], axis=1)
+        # too few distinct points for six parameters: numpy's solve need not raise on the singular normal equations
+        if i == 0 and np.linalg.matrix_rank(J) < 6:
+            return None
         try:
             dx = np.linalg.solve(J.T @ J, -J.T @ r)
         except np.linalg.LinAlgError:
