@@ -3,7 +3,7 @@
 import cv2
 import numpy as np
 import pytest
-from skimage import data
+from photos import photo
 
 from hvs_sim.tracking.ecc import ecc_template
 from hvs_sim.tracking.frames import roi_corners
@@ -17,8 +17,7 @@ T = np.array([[1, 0, ROI[0]], [0, 1, ROI[1]], [0, 0, 1.0]])  # template px → f
 
 
 def grey(name):
-    img = cv2.resize(getattr(data, name)(), (W, H), interpolation=cv2.INTER_AREA)
-    return cv2.cvtColor(img, cv2.COLOR_RGB2GRAY) if img.ndim == 3 else img
+    return cv2.cvtColor(photo(name), cv2.COLOR_RGB2GRAY)
 
 
 def model(g, clip_aware=True):
@@ -40,7 +39,7 @@ def worst(Wa, Wb):
 OFF = np.array([[1.002, 0, 0.8], [0, 0.998, -0.6], [0, 0, 1]])  # the start: ~1 px off at the corners
 
 
-@pytest.mark.parametrize("name", ["astronaut", "chelsea"])
+@pytest.mark.parametrize("name", ["china", "flower"])
 def test_recovers_perspective_warps_of_photos_within_a_tenth_of_a_pixel(name):
     g = grey(name)
     ic = model(g)
@@ -52,7 +51,7 @@ def test_recovers_perspective_warps_of_photos_within_a_tenth_of_a_pixel(name):
 
 
 def test_from_the_truth_on_its_own_frame_it_stays_and_an_exposure_change_does_not_move_it():
-    g = grey("chelsea")
+    g = grey("flower")
     ic = model(g)
     assert worst(ic.align(g, T).warp, T) < 1e-3
     brighter = np.clip(0.8 * g.astype(float) + 20, 0, 255).astype(np.uint8)  # gain and offset, nothing clipped
@@ -63,7 +62,7 @@ def test_clipped_pixels_are_left_out(monkeypatch):
     """A 1.4× gain clips the bright parts: they do not follow gain and offset, and left in they pull the warp."""
     import hvs_sim.tracking.intensity_ic as ic_module
 
-    g = grey("astronaut")
+    g = grey("china")
     frame, truth = warped(g, 1)
     over = np.clip(1.4 * frame.astype(float), 0, 255).astype(np.uint8)
     x, y, w, h = ROI
@@ -72,11 +71,12 @@ def test_clipped_pixels_are_left_out(monkeypatch):
     monkeypatch.setattr(ic_module, "CLIP_LO", -1)
     monkeypatch.setattr(ic_module, "CLIP_HI", 256)  # no level counts as clipped
     naive = worst(model(g, clip_aware=False).align(over, OFF @ truth).warp, truth)
-    assert aware < 0.1 and naive > 2 * aware, (aware, naive)
+    # 44 % of this patch is clipped: what is left holds the warp to a fraction of a pixel, left in they pull it ~2 px
+    assert aware < 0.25 and naive > 5 * aware, (aware, naive)
 
 
 def test_an_occluder_is_left_out_by_the_seen_mask_and_too_little_gives_no_answer():
-    g = grey("chelsea")
+    g = grey("flower")
     ic = model(g)
     frame, truth = warped(g, 2)
     frame = frame.copy()
@@ -91,7 +91,7 @@ def test_an_occluder_is_left_out_by_the_seen_mask_and_too_little_gives_no_answer
 
 
 def test_a_frame_without_texture_gives_no_answer():
-    g = grey("chelsea")
+    g = grey("flower")
     assert model(g).align(np.full((H, W), 128, np.uint8), T) is None
 
 
@@ -101,7 +101,7 @@ def test_smoothing_in_the_frame_as_ecc_does_is_the_hybrids_and_a_wrong_mode_is_r
     from hvs_sim.errors import ConfigError
     from hvs_sim.tracking import make_tracker
 
-    g = grey("chelsea")
+    g = grey("flower")
     x, y, w, h = ROI
     ic = IntensityIC(ecc_template(g, ROI, 5), 5, g[y:y + h, x:x + w], smooth="frame")
     for k in range(3):
@@ -129,7 +129,7 @@ def test_the_3x3_update_inverse_matches_numpy_and_a_singular_one_gives_none():
 
 def test_frame_mode_gives_the_same_answer_for_a_uint8_and_a_float_frame_and_a_flat_template_gives_none():
     """smooth="frame" resamples the uint8 frame without a float copy: the same warp as from the float frame."""
-    g = grey("chelsea")
+    g = grey("flower")
     x, y, w, h = ROI
     ic = IntensityIC(ecc_template(g, ROI, 5), 5, g[y:y + h, x:x + w], smooth="frame")
     frame, truth = warped(g, 1)

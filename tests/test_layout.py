@@ -115,3 +115,33 @@ def test_every_public_name_resolves_and_import_stays_light():
     from hvs_sim import ServoLoop, register_tracker  # from-imports go through __getattr__ too
 
     assert ServoLoop.__module__ == "hvs_sim.servo.loop" and register_tracker.__module__ == "hvs_sim.plugins"
+
+
+# Sample data reserved for independent evaluation: never imported by the package, its experiments or its tests.
+RESERVED_MODULES = ("skimage", "matplotlib.cbook")  # scikit-image's photographs; matplotlib's get_sample_data
+RESERVED_FILES = ("vtest.avi",)  # OpenCV's sample clip
+
+
+def _reserved_uses(path: Path) -> list[str]:
+    found = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        names = []
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and not node.level:
+            names = [node.module or ""]
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str):
+            found += [f"'{f}'" for f in RESERVED_FILES if f in node.value]
+        found += [n for n in names if any(n == m or n.startswith(m + ".") for m in RESERVED_MODULES)]
+    return found
+
+
+def test_reserved_sample_data_is_never_used(tmp_path):
+    root = PACKAGE.parent
+    this = Path(__file__).resolve()
+    uses = {p.relative_to(root).as_posix(): u for d in ("hvs_sim", "experiments", "tests")
+            for p in sorted((root / d).rglob("*.py")) if p.resolve() != this and (u := _reserved_uses(p))}
+    assert not uses, f"reserved sample data used (independent evaluation only): {uses}"
+    probe = tmp_path / "probe.py"  # the check itself finds each way in
+    probe.write_text("from skimage import data\nimport matplotlib.cbook as c\nclip = 'x/vtest.avi'\n")
+    assert _reserved_uses(probe) == ["skimage", "matplotlib.cbook", "'vtest.avi'"]

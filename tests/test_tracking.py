@@ -9,7 +9,7 @@ import pytest
 import torch
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from skimage import data
+from photos import photo
 
 from hvs_sim.errors import HvsError, InputError, StateError, WeightsError
 from hvs_sim.tracking import METHOD_NAMES, TRACKER_NAMES, TRACKERS, make_tracker
@@ -24,8 +24,6 @@ POSES = [(3.3, -2.7, math.radians(1.5), 1.02), (-6.2, 4.1, math.radians(-2.5), 0
          (0.35, 0.25, 0.0, 1.0), (7.5, 5.5, math.radians(4.0), 1.04)]
 
 
-def photo(name):
-    return cv2.resize(getattr(data, name)(), (W, H), interpolation=cv2.INTER_AREA)
 
 
 def warped(img, pose, center):
@@ -59,13 +57,13 @@ def worst_errors(tracker, source, flag_frame):
     return worst
 
 
-@pytest.mark.parametrize("source", ["astronaut", "coffee", "chelsea", "flags"])
+@pytest.mark.parametrize("source", ["china", "aero", "flower", "flags"])
 def test_deep_lk_full_resolution_recovers_warps_to_a_tenth_of_a_pixel(deep_lk_full_res, source, flag_frame):
     px, deg, rel_scale = worst_errors(deep_lk_full_res, source, flag_frame)
     assert px <= 0.1 and deg <= 0.1 and rel_scale <= 1e-3, (px, deg, rel_scale)
 
 
-@pytest.mark.parametrize("source", ["astronaut", "coffee", "chelsea", "flags"])
+@pytest.mark.parametrize("source", ["china", "aero", "flower", "flags"])
 def test_deep_lk_default_half_resolution_stays_within_0_15(deep_lk, source, flag_frame):
     # the default works on a half-resolution image for speed; resampling costs a little accuracy
     px, deg, rel_scale = worst_errors(deep_lk, source, flag_frame)
@@ -74,7 +72,7 @@ def test_deep_lk_default_half_resolution_stays_within_0_15(deep_lk, source, flag
 
 @pytest.mark.parametrize("name,tol", [("sift", 0.3), ("ecc", 0.3)])
 def test_baselines_recover_a_small_warp(name, tol):
-    img = photo("astronaut")
+    img = photo("china")
     c = roi_center(ROI)
     tr = make_tracker(name)
     tr.init(img, ROI)
@@ -85,7 +83,7 @@ def test_baselines_recover_a_small_warp(name, tol):
 
 
 def test_lk_steepest_descent_matches_finite_differences(deep_lk):
-    img = photo("astronaut")
+    img = photo("china")
     deep_lk.init(img, ROI)
     lk = deep_lk.aligner.lk_engine
     # template features sampled through the warp: d/dp F_T(W(x; p)) at p = 0 vs the stored SD images
@@ -152,7 +150,7 @@ def test_torchvision_style_weights_load_and_bad_files_are_refused(tmp_path):
 @pytest.mark.parametrize("name", TRACKER_NAMES)
 def test_bad_input_raises_documented_errors(name):
     tr = make_tracker(name)
-    img = photo("astronaut")
+    img = photo("china")
     with pytest.raises(StateError, match="before init"):
         tr.update(img)
     with pytest.raises(InputError, match="uint8"):
@@ -204,24 +202,23 @@ def test_unknown_tracker_name_lists_the_accepted_ones():
 
 @pytest.mark.parametrize("name", TRACKER_NAMES)
 def test_blank_and_fully_occluded_frames_give_lost_and_finite_pose(name):
-    img = photo("astronaut")
+    img = photo("china")
     tr = make_tracker(name)
     tr.init(img, ROI)
-    for frame in (np.zeros_like(img), np.full_like(img, 128)):
-        tk = tr.update(frame)
-        # the hybrid bridges such frames with its motion predictor first (bounded, then "lost")
-        assert tk.mode in (("predict", "lost") if TRACKERS[name].base == "hybrid" else ("lost",))
-        assert np.isfinite(tk.pose).all() and np.isfinite(tk.center).all() and np.isfinite(tk.corners).all()
     covered = img.copy()
     covered[100:380, 150:500] = (200, 40, 160)  # something covers the whole target
-    tk = tr.update(covered)
-    assert np.isfinite(tk.pose).all() and 0.0 <= tk.occlusion <= 1.0
-    assert tk.occlusion > 0.5 or tk.mode == "lost"
+    # the hybrid bridges such frames with its motion predictor first (bounded, then "lost"); none claims the target
+    claims = ("predict", "lost") if TRACKERS[name].base == "hybrid" else ("lost",)
+    for frame in (np.zeros_like(img), np.full_like(img, 128), covered):
+        tk = tr.update(frame)
+        assert tk.mode in claims
+        assert np.isfinite(tk.pose).all() and np.isfinite(tk.center).all() and np.isfinite(tk.corners).all()
+        assert 0.0 <= tk.occlusion <= 1.0
 
 
 @pytest.fixture(scope="module")
 def fuzz_trackers():
-    img = photo("coffee")
+    img = photo("aero")
     trackers = {n: make_tracker(n) for n in METHOD_NAMES}
     for t in trackers.values():
         t.init(img, ROI)
