@@ -572,6 +572,37 @@ def test_a_pull_on_a_low_contrast_target_is_seen_where_op_t_is_blind(flag_frame,
     assert not tr._pulled(frame, true, seen(true), work)
 
 
+@pytest.mark.parametrize("clear", [True, False])
+def test_a_pull_by_a_look_alike_op_t_reads_as_clear_is_seen(clear, flag_frame, monkeypatch):
+    """A person wearing the scene's own picture: the left quarter of the target shows the board 8 px over, which OP_t
+    takes for the target (under PULL_CHECK_OCC at both poses). An alignment pulled 2.5 px is refused, measured on
+    the surroundings in a quick hop (HybridConfig.pull_check_clear); with the check only where OP_t reads covered it is
+    taken. The true pose and one within PULL_CHECK_PX are taken either way, and so is the true one where the
+    surroundings are the wrong ones."""
+    path = random_walk(7, 12)
+    tr = tracking_on(flag_frame, path, pull_check_clear=clear)
+    al = tr.aligner
+    x, y, w, h = ROI
+    dx, dy = path[11]
+    frame = shift(flag_frame, dx, dy)
+    elsewhere = shift(flag_frame, dx + 8, dy)  # the board's own picture, 8 px over: a look-alike
+    x0, y0 = int(x + dx), int(y + dy)
+    frame[y0:y0 + h, x0:x0 + w // 4] = elsewhere[y0:y0 + h, x0:x0 + w // 4]
+    work = al.work_image(frame)
+    true = similarity(*(path[11] - path[10]), 0.0, 1.0) @ tr.state.A
+    pulled, near = similarity(2.5, 0.0, 0.0, 1.0) @ true, similarity(0.5, 0.0, 0.0, 1.0) @ true
+
+    def seen(A: np.ndarray) -> float:
+        return tr._occlusion_at(frame, al.to_work(A), al.occlusion(work, al.to_work(A)))
+
+    assert max(seen(true), seen(pulled)) <= PULL_CHECK_OCC  # OP_t cannot see this occluder
+    assert tr._pulled(frame, pulled, seen(pulled), work) is clear
+    assert not tr._pulled(frame, true, seen(true), work)
+    assert not tr._pulled(frame, near, seen(near), work)
+    monkeypatch.setattr(tr.scene_motion, "quick_peek", lambda *args, **kwargs: pulled)  # the surroundings are wrong
+    assert not tr._pulled(frame, true, seen(true), work)
+
+
 @pytest.mark.parametrize("hidden_share", [0.0, 0.6])
 def test_a_target_in_view_is_not_taken_for_the_occluder(hidden_share, flag_frame):
     """A coat sweeping in 8 px a frame beside the target holds more corners than the wall, whose consensus holds the

@@ -125,9 +125,8 @@ class HybridTracker(Tracker):
         self.sources: list[MotionSource] = []
         self.state: HybridState | None = None
         self.target_motion: str | None = None  # "static" or "moving"; None while `auto` is still deciding
-        # wall ms per stage of the last update (STAGES; the benchmark reads it): "prepare" (grey and
-        # working images), "coarse" (global match and OP_t of the seeds), "occlusion" (colour OP_t),
-        # "features" (VGG), "lk", "refine" (ECC, homography), "sources" (the predict path)
+        # wall ms per stage of the last update (STAGES; the benchmark reads it): prepare (grey, working images), coarse
+        # (global match, seeds' OP_t), occlusion, features (VGG), lk, refine (ECC, homography), sources (predict path)
         self.stage_ms: dict[str, float] = {}
 
     @property
@@ -141,8 +140,7 @@ class HybridTracker(Tracker):
 
     def _init(self, frame, roi) -> None:
         al = self.aligner
-        # the perspective report of a similarity hybrid (a homography hybrid's alignment is its own)
-        self._perspective_on = self.hconfig.perspective and self.warp == "similarity"
+        self._perspective_on = self.hconfig.perspective and self.warp == "similarity"  # a homography's is its own
         work = al.set_template(frame, roi, intensity=self._perspective_on)
         # the similarity's last corrections: where each puts the template's corners, in the template's frame (_reported)
         self._perspectives: deque[np.ndarray] = deque(maxlen=PERSPECTIVE_HISTORY)
@@ -301,27 +299,29 @@ class HybridTracker(Tracker):
 
     def _pulled(self, frame: np.ndarray, A: np.ndarray, occ: float, work: np.ndarray) -> bool:
         """Whether an occluder pulled this alignment (HybridConfig.pull_check): a static target aligned on the frame
-        before, partly covered now (OP_t over PULL_CHECK_OCC), aligned more than PULL_CHECK_PX from where the
-        surroundings' motion since then puts it, and its visible pixels fitting there no better than at the
-        surroundings' pose (Aligner.shows_clearly, HybridConfig.pull_evidence). Robust LK still moved 0.8-1.7 px a
-        frame towards a coat's edge over 2-14 % of the target, and the chain carried that through the coat's 3.5 s
-        stay (photos' dev split, `long` ascent of seed 2027: 2.7 px at OP_t 0.18). The image decides because either can
-        be wrong: the surroundings' hop, not gated here, can be the coat's (13 px); OP_t could not tell a hand's 3.5 px
-        pull on a smooth photo."""
-        if not (self.hconfig.pull_check and self.target_motion == "static" and occ > PULL_CHECK_OCC
+        before, partly covered now (OP_t over PULL_CHECK_OCC; or clear, `pull_check_clear`, the surroundings then
+        measured in a quick hop), aligned over PULL_CHECK_PX from where the surroundings' motion since then puts it,
+        and its visible pixels fitting there no better than at their pose (Aligner.shows_clearly, `pull_evidence`).
+        Robust LK still moved 0.8-1.7 px a frame towards a coat's edge over 2-14 % of the target, and the chain carried
+        that through the coat's 3.5 s stay (photos' dev split, `long` ascent of seed 2027: 2.7 px at OP_t 0.18). The
+        image decides as either can be wrong: the surroundings' hop can be the coat's (13 px); OP_t could not tell a
+        hand's 3.5 px pull on a smooth photo, nor a person wearing the target's picture (`camo`)."""
+        covered, c = occ > PULL_CHECK_OCC, self.hconfig
+        if not (c.pull_check and self.target_motion == "static" and (covered or c.pull_check_clear)
                 and self.state.since_aligned == 0 and self.scene_motion is not None):
             return False
-        found = self._surroundings_miss(A, work)
+        found = self._surroundings_miss(A, work, quick=not covered)
         if found is None or found[1] <= PULL_CHECK_PX:
             return False
         B = self.aligner.to_work(found[0])
         visible = 1.0 - max(occ, self._occlusion_measured(frame, work, B))
         return not self.aligner.shows_clearly(work, self.aligner.to_work(A), B, visible, self.hconfig.pull_evidence)
 
-    def _surroundings_miss(self, A: np.ndarray, work: np.ndarray) -> tuple[np.ndarray, float] | None:
-        """The pose the surroundings' motion since the last measured frame gives (SceneMotionSource.measure, peeking),
+    def _surroundings_miss(self, A: np.ndarray, work: np.ndarray, quick: bool = False
+                           ) -> tuple[np.ndarray, float] | None:
+        """The pose the surroundings' motion since the last measured frame gives (SceneMotionSource.peek, or quick_peek),
         and how far A's centre is from its centre; None where they cannot be measured."""
-        B = self.scene_motion.measure(work, self.state, peek=True)
+        B = (self.scene_motion.quick_peek if quick else self.scene_motion.peek)(work, self.state)
         if B is None:
             return None
         center0 = self.state.center0

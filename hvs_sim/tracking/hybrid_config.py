@@ -71,10 +71,10 @@ APPEARANCE_RECORD_OCC = 0.1  # an alignment with OP_t up to this is confident en
 # refinement has no robust weights, and a hand's defocused edge over 18 % of the target pulled it 2.7 px, which the
 # report then carried through the whole occlusion (photos' dev split, `hand` on china of seed 7)
 PERSPECTIVE_MAX_OCC = 0.1
-# an alignment is checked against the surroundings (HybridConfig.pull_check) where OP_t there is over this (the target
-# partly covered; a clear hand-held view reads up to ~0.15 from blur and noise, background.CLEAR_OP; checking from 0.1
-# peeked at the surroundings on a fifth of the photos' dev frames, 4.35 -> 5.28x the ECC reference's time), and taken
-# for pulled by the occluder where it lies over PULL_CHECK_PX from the surroundings' pose
+# an alignment is checked against the surroundings (HybridConfig.pull_check) in full where OP_t there is over this (the
+# target partly covered; a clear hand-held view reads up to ~0.15 from blur and noise, background.CLEAR_OP; the full
+# measurement from 0.1 peeked on a fifth of the photos' dev frames, 4.35 -> 5.28x the ECC reference's time), below it
+# in a quick hop (`pull_check_clear`), and taken for pulled where it lies over PULL_CHECK_PX from their pose
 PULL_CHECK_OCC = CLEAR_OP
 PULL_CHECK_PX = 1.0
 # ... and the pose is reported with the median of the last this many (HybridTracker._reported): on a clear sequence
@@ -142,6 +142,11 @@ class HybridConfig:
     # (PULL_CHECK_*) and that does not fit the template better than their pose (pull_evidence) was pulled by the
     # occluder: the frame is not aligned, and the surroundings carry the estimate (HybridTracker._pulled). False: all are taken
     pull_check: bool = True
+    # ... also where OP_t says the target shows clear, the surroundings measured in a quick hop
+    # (SceneMotionSource.quick_peek): a person wearing the target's own picture is no occluder to OP_t, and as they
+    # walked in over the target the alignment moved with them 4-5 px a frame (photos' dev split, `camo`). Off: it
+    # helped 3 of 80 dev sequences and cost 35-45 % more time a frame (docs/results.md, `hybrid_clear_pull_check`)
+    pull_check_clear: bool = False
     # ... taken where the frame shows the template better at the alignment than at the surroundings' pose by more than
     # this share of what the template itself tells the two poses apart by (Aligner.shows_clearly; where the alignment
     # is right, about all of it). 0: any better fit. 0.5 refused a coat's 4 px pull on a smooth photo that fitted a
@@ -220,7 +225,7 @@ class HybridConfig:
             object.__setattr__(self, "lk_perspective", not self.deep.residual)
         check_flags(self, ("continuity", "colour_occlusion", "gate_after_alignment", "background", "reanchor",
                            "verify_reacquisition", "background_gate_continues", "background_gate_sway", "perspective",
-                           "pull_check", "lk_perspective", "lookalike_drift", "context_check"))
+                           "pull_check", "pull_check_clear", "lk_perspective", "lookalike_drift", "context_check"))
         check_number("pull_evidence", self.pull_evidence, 0.0, 1.0)
         check_number("context_agree", self.context_agree, -1.0, 1.0)
         if self.lk_perspective and self.deep.residual:

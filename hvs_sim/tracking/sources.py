@@ -16,7 +16,7 @@ tell them what happened through `on_aligned`, `on_measured` and `on_predicted`.
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
@@ -73,6 +73,8 @@ CONTINUE_MIN_SPEED = 0.5  # ... and from half the gate a frame (a fraction of ba
 # ... and its bound widens by the largest change of the target's per-frame motion over this many of the last
 # consecutive alignments, beyond the half of the gate left for it (HybridConfig.background_gate_sway, on_aligned)
 SWAY_MEASUREMENTS = 5
+# the quick hop (SceneMotionSource.quick_peek): pyramid levels of its LK, one frame's motion being small
+QUICK_LEVELS = 2
 # a target taken for covered (OP_t at the estimate at least background.COVERED_OP) stays so until OP_t falls under
 # this: under a coat OP_t read 0.80-0.82 frame after frame and dipped to 0.797, and on those frames the coat's
 # consensus, moving with the view one way but not the other, was chained (photos' dev split, `long` aero, seed 7)
@@ -144,6 +146,8 @@ class SceneMotionSource:
         self.widen = widen  # HybridConfig.background_gate_sway
         self.patience = config.hop
         self.motion = BackgroundMotion(config)
+        # the strongest corners only, a similarity, fewer levels: a check on every aligned frame (quick_peek)
+        self.quick = BackgroundMotion(replace(config, levels=QUICK_LEVELS, homography=False, cell_corners=0))
 
     def reset(self, state):
         self.motion.reset(forget_motion=True)
@@ -200,6 +204,19 @@ class SceneMotionSource:
                 self.motion.start(key_work)
             M = self.motion.update(work, hidden, accept=(lambda M: self._passes(full(M), state)) if gated else None)
         return None if M is None else full(M)
+
+    def quick_peek(self, work, state: HybridState) -> np.ndarray | None:
+        """Where the scene's motion since the chain's start puts the target (full-res warp), in one hop of the scene in
+        view: a similarity from the strongest corners, at a fraction of `measure`'s cost (no corners per part of the
+        view, no plane refit, one pyramid level less), for a check on the frame after each alignment (the chain's
+        start; HybridTracker._pulled). None where the scene gives no trustworthy motion."""
+        key_work, A_key = self.key
+        found = self.quick.step(key_work, work)
+        return None if found is None else self.aligner.S_inv @ found[0] @ self.aligner.S @ A_key
+
+    def peek(self, work, state: HybridState) -> np.ndarray | None:
+        """`measure` peeking: the chain left as it was."""
+        return self.measure(work, state, peek=True)
 
     def _passes(self, A: np.ndarray, state: HybridState) -> bool:
         """Whether a measurement of the surroundings moves the target no further than the view can move: a consensus
