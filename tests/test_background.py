@@ -3,6 +3,7 @@
 import cv2
 import numpy as np
 import pytest
+from photos import photo
 
 from hvs_sim.errors import HvsError
 from hvs_sim.tracking import background as bg
@@ -17,8 +18,9 @@ from hvs_sim.tracking.background import (
     _hop_model,
     _plane_refit,
 )
+from hvs_sim.tracking.evidence import ring_steadiness
 from hvs_sim.tracking.frames import roi_center
-from hvs_sim.tracking.hybrid_config import PULL_CHECK_OCC
+from hvs_sim.tracking.hybrid_config import PULL_CHECK_OCC, PULL_RING_STEADY
 from hvs_sim.tracking.occlusion import occlusion_fraction
 from hvs_sim.tracking.warp import apply, fit_similarity, fit_turn, similarity
 
@@ -573,34 +575,41 @@ def test_a_pull_on_a_low_contrast_target_is_seen_where_op_t_is_blind(flag_frame,
 
 
 @pytest.mark.parametrize("clear", [True, False])
-def test_a_pull_by_a_look_alike_op_t_reads_as_clear_is_seen(clear, flag_frame, monkeypatch):
-    """A person wearing the scene's own picture: the left quarter of the target shows the board 8 px over, which OP_t
-    takes for the target (under PULL_CHECK_OCC at both poses). An alignment pulled 2.5 px is refused, measured on
-    the surroundings in a quick hop (HybridConfig.pull_check_clear); with the check only where OP_t reads covered it is
-    taken. The true pose and one within PULL_CHECK_PX are taken either way, and so is the true one where the
-    surroundings are the wrong ones."""
+def test_a_pull_by_a_look_alike_op_t_reads_as_clear_is_seen(clear, monkeypatch):
+    """A person wearing the scene's own picture comes in from the left: the ring around the target and an eighth of the
+    target show the photo from 40 px over, which OP_t takes for the target (under PULL_CHECK_OCC at both poses). The
+    ring changed (evidence.ring_steadiness under PULL_RING_STEADY), so with `pull_check_clear` the surroundings are
+    measured in a quick hop and an alignment pulled 1.5 px is refused; without, it is taken. The true pose and one
+    within PULL_CHECK_PX are taken either way, and so is the true one where the surroundings are the wrong ones. Where
+    nothing came into the ring, the quick hop is not measured at all."""
+    img = photo("aero")
     path = random_walk(7, 12)
-    tr = tracking_on(flag_frame, path, pull_check_clear=clear)
+    tr = tracking_on(img, path, pull_check_clear=clear)
     al = tr.aligner
     x, y, w, h = ROI
     dx, dy = path[11]
-    frame = shift(flag_frame, dx, dy)
-    elsewhere = shift(flag_frame, dx + 8, dy)  # the board's own picture, 8 px over: a look-alike
+    plain = shift(img, dx, dy)
+    frame, elsewhere = plain.copy(), shift(img, dx + 40, dy)
     x0, y0 = int(x + dx), int(y + dy)
-    frame[y0:y0 + h, x0:x0 + w // 4] = elsewhere[y0:y0 + h, x0:x0 + w // 4]
+    frame[y0 - h // 2:y0 + h + h // 2, x0 - w // 2:x0 + w // 8] = elsewhere[y0 - h // 2:y0 + h + h // 2, x0 - w // 2:x0 + w // 8]
     work = al.work_image(frame)
     true = similarity(*(path[11] - path[10]), 0.0, 1.0) @ tr.state.A
-    pulled, near = similarity(2.5, 0.0, 0.0, 1.0) @ true, similarity(0.5, 0.0, 0.0, 1.0) @ true
+    pulled, near = similarity(1.5, 0.0, 0.0, 1.0) @ true, similarity(0.5, 0.0, 0.0, 1.0) @ true
 
     def seen(A: np.ndarray) -> float:
         return tr._occlusion_at(frame, al.to_work(A), al.occlusion(work, al.to_work(A)))
 
     assert max(seen(true), seen(pulled)) <= PULL_CHECK_OCC  # OP_t cannot see this occluder
+    assert ring_steadiness(al, *tr.scene_motion.key, work, al.to_work(pulled)) < PULL_RING_STEADY
     assert tr._pulled(frame, pulled, seen(pulled), work) is clear
     assert not tr._pulled(frame, true, seen(true), work)
     assert not tr._pulled(frame, near, seen(near), work)
     monkeypatch.setattr(tr.scene_motion, "quick_peek", lambda *args, **kwargs: pulled)  # the surroundings are wrong
     assert not tr._pulled(frame, true, seen(true), work)
+    plain_work = al.work_image(plain)
+    assert ring_steadiness(al, *tr.scene_motion.key, plain_work, al.to_work(true)) >= PULL_RING_STEADY
+    monkeypatch.setattr(tr.scene_motion, "quick_peek", lambda *args, **kwargs: pytest.fail("measured"))
+    assert not tr._pulled(plain, true, 0.0, plain_work)
 
 
 @pytest.mark.parametrize("hidden_share", [0.0, 0.6])

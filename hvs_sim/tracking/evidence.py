@@ -7,6 +7,8 @@ a re-acquisition (hybrid.py).
 - `context_agreement`: the NCC of the ring of picture around the template, as the template's own view showed it, with
   the ring around the pose. A look-alike of the target (a shirt printed with the scene, a repeated motif, a spot along
   a kerb) rarely has the target's neighbours beside it as well; the target has them wherever the view went.
+- `ring_steadiness`: the same ring between the last aligned frame and this one: whether anything moved against the
+  alignment around the target (an occluder coming in, or the alignment pulled off the scene).
 
 Both sample the frame through the pose with occlusion.aligned_patch (OpenCV's warpAffine/warpPerspective), in grey
 work pixels, the template's geometry taken from the Aligner.
@@ -50,12 +52,13 @@ def appearance(al: Aligner, work: np.ndarray, A_work: np.ndarray) -> float:
     return _ncc(patch.astype(np.float32)[inside], al.template.astype(np.float32)[inside])
 
 
-def context_agreement(al: Aligner, work: np.ndarray, A_work: np.ndarray, pad: float = CONTEXT_PAD) -> float | None:
-    """NCC of the ring around the template in the template's view (Aligner.init_work, where the identity holds) with
-    the ring A_work puts around the target in `work`; None when under CONTEXT_MIN_SHOWN of the ring is in both."""
+def _rings_ncc(al: Aligner, then_work: np.ndarray, then_A: np.ndarray, work: np.ndarray, A_work: np.ndarray,
+               pad: float) -> float | None:
+    """NCC of the ring around the target (the box left out) that then_A puts in then_work with the one A_work puts in
+    `work`, both blurred by CONTEXT_BLUR; None when under CONTEXT_MIN_SHOWN of the ring is in both."""
     px, py = round(pad * al.tw), round(pad * al.th)
     origin, shape = al.t_origin - np.array([px, py]), (al.th + 2 * py, al.tw + 2 * px)
-    then, then_in = aligned_patch(al.init_work, np.eye(3), origin, shape)
+    then, then_in = aligned_patch(then_work, then_A, origin, shape)
     now, now_in = aligned_patch(work, A_work, origin, shape)
     ring = then_in & now_in
     ring[py:py + al.th, px:px + al.tw] = False
@@ -63,3 +66,18 @@ def context_agreement(al: Aligner, work: np.ndarray, A_work: np.ndarray, pad: fl
         return None
     blur = [cv2.GaussianBlur(p.astype(np.float32), (0, 0), CONTEXT_BLUR)[ring] for p in (then, now)]
     return _ncc(*blur)
+
+
+def context_agreement(al: Aligner, work: np.ndarray, A_work: np.ndarray, pad: float = CONTEXT_PAD) -> float | None:
+    """NCC of the ring around the template in the template's view (Aligner.init_work, where the identity holds) with
+    the ring A_work puts around the target in `work`; None when under CONTEXT_MIN_SHOWN of the ring is in both."""
+    return _rings_ncc(al, al.init_work, np.eye(3), work, A_work, pad)
+
+
+def ring_steadiness(al: Aligner, then_work: np.ndarray, then_A: np.ndarray, work: np.ndarray, A_work: np.ndarray,
+                    pad: float = CONTEXT_PAD) -> float:
+    """The same between two frames: the ring the full-res pose then_A put around the target in then_work against the
+    one A_work puts in `work`. Near 1 where the surroundings moved with the alignment and nothing came into them
+    (HybridTracker._pulled); -1 when under CONTEXT_MIN_SHOWN of the ring is in both."""
+    found = _rings_ncc(al, then_work, al.to_work(then_A), work, A_work, pad)
+    return -1.0 if found is None else found

@@ -16,32 +16,29 @@ Two changes to the paper in the predict path, both on by default and both measur
   the surroundings since that frame. That measures the camera's motion, where the GRU can only extrapolate it
   (hand-held tremor is not predictable over a 1.8 s occlusion). The GRU (or the configured predictor) takes over on
   frames where the surroundings give no trustworthy motion (a person filling the whole view), continuing from the last
-  background-based positions. After such predictor-only frames the chain would carry the predictor's error to the end
-  of the occlusion, so as soon as the wall shows again the frame is measured against earlier aligned keyframes instead
-  (`reanchor`, anchor.KeyframeAnchor).
-- OP_t over colour channels (`colour_occlusion`, occlusion.py): grey OP_t reported a flag half
-  covered by a brown sleeve as clear, so LK aligned on the sleeve.
+  background-based positions. After such frames the chain would carry the predictor's error to the end of the
+  occlusion, so once the wall shows again the frame is measured against earlier aligned keyframes (`reanchor`).
+- OP_t over colour channels (`colour_occlusion`, occlusion.py): grey OP_t read a flag half under a brown sleeve clear.
 
 Built from parts (ViSP-style composition rather than inheritance): an `Aligner` (global match, feature LK, residual),
 the OP_t gate, and motion sources tried in order on frames that are not aligned (sources.py: keyframe anchor → scene
 motion → predictor). `HybridState` holds everything that changes from frame to frame, and its four transitions —
 aligned, measured, predicted, lost — are the only way it changes.
 
-A re-acquisition (after `lost`, a cut, or REACQUIRE_AFTER frames without an alignment) must pass several
-checks, not the NCC score alone: the whole aligned patch's NCC with the template within APPEARANCE_SLACK of this
-track's own confident alignments; and either a place the measured surroundings agree with, or a unique match (no
-look-alike beyond half the template's side, which also catches a kerb's look-alike along it) seen at one place on
-`reacquire_frames` consecutive frames, or at once where the ring of picture around it is the template's view's and
-the estimate's is not (`context_check`, evidence.py: the estimate went wrong). An unrelated shot's facade that scores 0.6–0.7 is refused; so is a
-look-alike 35 px along a weakly textured target after many predicted frames, which the predictor's growing bound
+A re-acquisition (after `lost`, a cut, or REACQUIRE_AFTER frames without an alignment) must pass several checks, not
+the NCC score alone: the whole aligned patch's NCC with the template within APPEARANCE_SLACK of this track's own
+confident alignments; and either a place the measured surroundings agree with, or a unique match (no look-alike beyond
+half the template's side, which also catches a kerb's look-alike along it) seen at one place on `reacquire_frames`
+consecutive frames, or at once where the ring of picture around it is the template's view's and the estimate's is not
+(`context_check`, evidence.py: the estimate went wrong). An unrelated shot's facade that scores 0.6–0.7 is refused; so
+is a look-alike 35 px along a weakly textured target after many predicted frames, which the predictor's growing bound
 used to take in. Every `lost` episode says why in the tracker's notes (`hvs-sim track` prints them).
 
 The extrapolating predictor is bounded: after `max_predict_frames` consecutive frames with neither an alignment nor a
 background measurement (default 45, 1.5 s at 30 Hz) the mode becomes "lost" and the estimate stops moving until
 re-acquisition. A scene cut (`cut_ncc`) and `max_unaligned_frames` without an alignment also end in "lost", whatever
 the surroundings say; so does `max_predict_frames` without an alignment while `auto` has not yet decided the target's
-motion (a target that moves or changes shape is not where its surroundings put it: the box would stay frozen on the
-background).
+motion (a target that moves or changes shape is not where its surroundings put it: its box would freeze there).
 
 All of the above takes the target to be fixed in the scene (`target_motion="static"`, the servo loop's case). For
 footage whose target moves on its own, `"moving"` drops the surroundings (the predictor alone fills gaps, and a far
@@ -61,7 +58,7 @@ import numpy as np
 from hvs_sim.tracking.aligner import RECTIFY_DEG, RECTIFY_SCALE, Aligner
 from hvs_sim.tracking.base import Estimate, Mode, Tracker
 from hvs_sim.tracking.cuts import CUT_MIN_CONTRAST, CUT_THUMB, thumbnail  # noqa: F401 (importable from here)
-from hvs_sim.tracking.evidence import appearance, context_agreement
+from hvs_sim.tracking.evidence import appearance, context_agreement, ring_steadiness
 from hvs_sim.tracking.hybrid_config import (  # noqa: F401  (HybridConfig and its constants, importable from here)
     APPEARANCE_HISTORY,
     APPEARANCE_RECORD_OCC,
@@ -78,6 +75,7 @@ from hvs_sim.tracking.hybrid_config import (  # noqa: F401  (HybridConfig and it
     PREDICTED_CONFIDENCE,
     PULL_CHECK_OCC,
     PULL_CHECK_PX,
+    PULL_RING_STEADY,
     REACQUIRE_AFTER,
     SURROUNDINGS_GUESSES,
     TARGET_MOTIONS,
@@ -299,17 +297,19 @@ class HybridTracker(Tracker):
 
     def _pulled(self, frame: np.ndarray, A: np.ndarray, occ: float, work: np.ndarray) -> bool:
         """Whether an occluder pulled this alignment (HybridConfig.pull_check): a static target aligned on the frame
-        before, partly covered now (OP_t over PULL_CHECK_OCC; or clear, `pull_check_clear`, the surroundings then
-        measured in a quick hop), aligned over PULL_CHECK_PX from where the surroundings' motion since then puts it,
-        and its visible pixels fitting there no better than at their pose (Aligner.shows_clearly, `pull_evidence`).
+        before, partly covered now (OP_t over PULL_CHECK_OCC; or clear where the ring around it changed, `pull_check_
+        clear`, the scene then measured in a quick hop), over PULL_CHECK_PX from where the surroundings' motion since
+        then puts it, and its visible pixels fitting there no better than at their pose (Aligner.shows_clearly).
         Robust LK still moved 0.8-1.7 px a frame towards a coat's edge over 2-14 % of the target, and the chain carried
         that through the coat's 3.5 s stay (photos' dev split, `long` ascent of seed 2027: 2.7 px at OP_t 0.18). The
         image decides as either can be wrong: the surroundings' hop can be the coat's (13 px); OP_t could not tell a
         hand's 3.5 px pull on a smooth photo, nor a person wearing the target's picture (`camo`)."""
-        covered, c = occ > PULL_CHECK_OCC, self.hconfig
+        covered, c, al = occ > PULL_CHECK_OCC, self.hconfig, self.aligner
         if not (c.pull_check and self.target_motion == "static" and (covered or c.pull_check_clear)
                 and self.state.since_aligned == 0 and self.scene_motion is not None):
             return False
+        if not covered and ring_steadiness(al, *self.scene_motion.key, work, al.to_work(A)) >= PULL_RING_STEADY:
+            return False  # the surroundings moved with the alignment, and nothing came into them: no pull to look for
         found = self._surroundings_miss(A, work, quick=not covered)
         if found is None or found[1] <= PULL_CHECK_PX:
             return False

@@ -77,6 +77,10 @@ PERSPECTIVE_MAX_OCC = 0.1
 # in a quick hop (`pull_check_clear`), and taken for pulled where it lies over PULL_CHECK_PX from their pose
 PULL_CHECK_OCC = CLEAR_OP
 PULL_CHECK_PX = 1.0
+# ... and where OP_t reads the target clear (`pull_check_clear`), only where the ring of picture around it, from the
+# last alignment to this one, correlates under this (evidence.ring_steadiness): something came into the surroundings or
+# the alignment left them. On the photos' dev seed 61 it skipped 92 % of those checks and none that refused a pull
+PULL_RING_STEADY = 0.95
 # ... and the pose is reported with the median of the last this many (HybridTracker._reported): on a clear sequence
 # whose tilted view biased the similarity by up to 3.8 px (china, seed 7) the correction moved by at most 0.9 px
 # from one measurement to the next, while a look-alike pulled one frame's 3.4 px
@@ -142,11 +146,12 @@ class HybridConfig:
     # (PULL_CHECK_*) and that does not fit the template better than their pose (pull_evidence) was pulled by the
     # occluder: the frame is not aligned, and the surroundings carry the estimate (HybridTracker._pulled). False: all are taken
     pull_check: bool = True
-    # ... also where OP_t says the target shows clear, the surroundings measured in a quick hop
-    # (SceneMotionSource.quick_peek): a person wearing the target's own picture is no occluder to OP_t, and as they
-    # walked in over the target the alignment moved with them 4-5 px a frame (photos' dev split, `camo`). Off: it
-    # helped 3 of 80 dev sequences and cost 35-45 % more time a frame (docs/results.md, `hybrid_clear_pull_check`)
-    pull_check_clear: bool = False
+    # ... also where OP_t says the target shows clear but the ring of picture around it changed since the last
+    # alignment (PULL_RING_STEADY), the surroundings then measured in a quick hop (SceneMotionSource.quick_peek): a
+    # person wearing the target's own picture is no occluder to OP_t, and as they walked in over the target the
+    # alignment moved with them 4-5 px a frame (photos' dev split, `camo`). False: only where OP_t is over
+    # PULL_CHECK_OCC (docs/results.md, `hybrid_covered_pull`)
+    pull_check_clear: bool = True
     # ... taken where the frame shows the template better at the alignment than at the surroundings' pose by more than
     # this share of what the template itself tells the two poses apart by (Aligner.shows_clearly; where the alignment
     # is right, about all of it). 0: any better fit. 0.5 refused a coat's 4 px pull on a smooth photo that fitted a

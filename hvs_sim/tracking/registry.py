@@ -89,10 +89,10 @@ TRACKERS: dict[str, TrackerSpec] = {
     "hybrid_unchecked_alignment": TrackerSpec("hybrid", {"pull_check": False},
                                               "every alignment of a partly covered target is taken, not checked "
                                               "against the surroundings' motion", "#6b6ecf"),
-    "hybrid_clear_pull_check": TrackerSpec("hybrid", {"pull_check_clear": True},
-                                           "an alignment is checked against the surroundings also where OP_t says "
-                                           "the target shows clear (a quick hop), not only where partly covered",
-                                           "#cedb9c"),
+    "hybrid_covered_pull": TrackerSpec("hybrid", {"pull_check_clear": False},
+                                       "an alignment is checked against the surroundings only where OP_t says the "
+                                       "target is partly covered, not also where it shows clear and the ring of "
+                                       "picture around it changed", "#cedb9c"),
     "hybrid_clear_pull": TrackerSpec("hybrid", {"pull_evidence": 0.5},
                                      "an alignment the surroundings contradict is taken only where it fits the "
                                      "template clearly better than their pose, not wherever better", "#3182bd"),
