@@ -313,15 +313,15 @@ class HybridTracker(Tracker):
         found = self._surroundings_miss(A, work, quick=not covered)
         if found is None or found[1] <= PULL_CHECK_PX:
             return False
-        B = self.aligner.to_work(found[0])
+        B = al.to_work(found[0])
         visible = 1.0 - max(occ, self._occlusion_measured(frame, work, B))
-        return not self.aligner.shows_clearly(work, self.aligner.to_work(A), B, visible, self.hconfig.pull_evidence)
+        return not al.shows_clearly(work, al.to_work(A), B, visible, c.pull_evidence)
 
     def _surroundings_miss(self, A: np.ndarray, work: np.ndarray, quick: bool = False
                            ) -> tuple[np.ndarray, float] | None:
-        """The pose the surroundings' motion since the last measured frame gives (SceneMotionSource.peek, or quick_peek),
-        and how far A's centre is from its centre; None where they cannot be measured."""
-        B = (self.scene_motion.quick_peek if quick else self.scene_motion.peek)(work, self.state)
+        """The pose the surroundings' motion since the last measured frame gives (SceneMotionSource.measure peeking, or
+        quick_peek), and how far A's centre is from its centre; None where they cannot be measured."""
+        B = self.scene_motion.quick_peek(work) if quick else self.scene_motion.measure(work, self.state, peek=True)
         if B is None:
             return None
         center0 = self.state.center0

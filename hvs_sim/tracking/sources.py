@@ -205,7 +205,7 @@ class SceneMotionSource:
             M = self.motion.update(work, hidden, accept=(lambda M: self._passes(full(M), state)) if gated else None)
         return None if M is None else full(M)
 
-    def quick_peek(self, work, state: HybridState) -> np.ndarray | None:
+    def quick_peek(self, work) -> np.ndarray | None:
         """Where the scene's motion since the chain's start puts the target (full-res warp), in one hop of the scene in
         view: a similarity from the strongest corners, at a fraction of `measure`'s cost (no corners per part of the
         view, no plane refit, one pyramid level less), for a check on the frame after each alignment (the chain's
@@ -213,10 +213,6 @@ class SceneMotionSource:
         key_work, A_key = self.key
         found = self.quick.step(key_work, work)
         return None if found is None else self.aligner.S_inv @ found[0] @ self.aligner.S @ A_key
-
-    def peek(self, work, state: HybridState) -> np.ndarray | None:
-        """`measure` peeking: the chain left as it was."""
-        return self.measure(work, state, peek=True)
 
     def _passes(self, A: np.ndarray, state: HybridState) -> bool:
         """Whether a measurement of the surroundings moves the target no further than the view can move: a consensus
