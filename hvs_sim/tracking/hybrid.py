@@ -203,7 +203,8 @@ class HybridTracker(Tracker):
             miss = np.linalg.norm(matrix_to_pose(A, st.center0)[:2] - expected)
             return miss <= c.reacquire_px + c.background_gate_px * st.predict_run or unique
         offset = matrix_to_pose(A, st.center0)[:2] - matrix_to_pose(st.A, st.center0)[:2]
-        allowed = c.reacquire_px + c.background_gate_px * st.predict_run + c.reacquire_drift_px * st.since_aligned
+        drifted = st.guessed if (c.lookalike_drift and not unique) else st.since_aligned  # as in a re-acquisition
+        allowed = c.reacquire_px + c.background_gate_px * st.predict_run + c.reacquire_drift_px * drifted
         if np.linalg.norm(offset) <= allowed or self._surroundings_agree(A, work):
             st.jump_seen(None, 0.0)
             return True
@@ -219,8 +220,7 @@ class HybridTracker(Tracker):
         return seen >= c.reacquire_frames
 
     def _reacquiring(self) -> bool:
-        """Whether an alignment now is a re-acquisition (after `lost`, a cut or REACQUIRE_AFTER unaligned frames),
-        which _reacquisition_verified checks."""
+        """Whether an alignment now is a re-acquisition (after `lost`, a cut or REACQUIRE_AFTER unaligned frames)."""
         st = self.state
         return st.is_lost or st.after_cut or st.since_aligned >= REACQUIRE_AFTER
 

@@ -171,10 +171,11 @@ class HybridConfig:
     reacquire_drift_px: float = 0.5
     reacquire_margin: float = 0.1
     reacquire_frames: int = 3
-    # with a look-alike in view (the match not unique), a static target's re-acquisition near where the surroundings
-    # put it allows reacquire_drift_px only per frame the predictor guessed, not per frame their motion was measured
-    # on: a chain measured for 85 frames stayed within 0.6 px of the target, and a person wearing its picture 37 px
-    # away was within the 50 px the flat allowance gave (photos' dev split, `camo` ascent). False: per frame
+    # with a look-alike in view (the match not unique), a static target's alignment (a re-acquisition near where the
+    # surroundings put it, or one within REACQUIRE_AFTER frames of the last) allows reacquire_drift_px only per frame
+    # the predictor guessed, not per frame their motion was measured on: a chain measured for 85 frames stayed within
+    # 0.6 px of the target, and a person wearing its picture 37 px away was within the 50 px the flat allowance gave;
+    # 12 measured frames let in a copy 12.6 px away (photos' dev split, `camo` ascent). False: per frame
     lookalike_drift: bool = True
     # a static target's far jump that the surroundings contradict: while the frames since the last alignment were
     # measured on the surroundings (at most SURROUNDINGS_GUESSES predictor guesses, no seed), they say where the

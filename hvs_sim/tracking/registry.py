@@ -100,8 +100,9 @@ TRACKERS: dict[str, TrackerSpec] = {
                                   "the feature LK aligns the similarity alone (the paper's), not the similarity under "
                                   "the target's reported perspective", "#e6550d"),
     "hybrid_flat_drift": TrackerSpec("hybrid", {"lookalike_drift": False},
-                                     "a re-acquisition near the surroundings' estimate may have drifted by the same "
-                                     "allowance per frame with a look-alike in view, not only per frame guessed",
+                                     "an alignment near the estimate (or the surroundings' estimate) may have drifted "
+                                     "by the same allowance per frame with a look-alike in view, not only per frame "
+                                     "guessed",
                                      "#756bb1"),
     "hybrid_first_consensus": TrackerSpec("hybrid", {"background_config": {"runner_up": False}},
                                           "a hop whose consensus the gate refuses offers no other, not the consensus "
