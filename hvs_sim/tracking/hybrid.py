@@ -203,7 +203,7 @@ class HybridTracker(Tracker):
             miss = np.linalg.norm(matrix_to_pose(A, st.center0)[:2] - expected)
             return miss <= c.reacquire_px + c.background_gate_px * st.predict_run or unique
         offset = matrix_to_pose(A, st.center0)[:2] - matrix_to_pose(st.A, st.center0)[:2]
-        drifted = st.guessed if (c.lookalike_drift and not unique) else st.since_aligned  # as in a re-acquisition
+        drifted = st.drifted_frames(c.lookalike_drift and not unique)  # as in a re-acquisition
         allowed = c.reacquire_px + c.background_gate_px * st.predict_run + c.reacquire_drift_px * drifted
         if np.linalg.norm(offset) <= allowed or self._surroundings_agree(A, work):
             st.jump_seen(None, 0.0)
@@ -266,8 +266,7 @@ class HybridTracker(Tracker):
         offset = matrix_to_pose(A, st.center0)[:2] - matrix_to_pose(st.A, st.center0)[:2]
         measured = (self.target_motion == "static" and not (st.is_lost or st.after_cut) and st.scene_held
                     and st.drift_run <= SURROUNDINGS_GUESSES)
-        # the estimate's drift: reacquire_drift_px a frame, with a look-alike in view a guessed frame (lookalike_drift)
-        drifted = st.guessed if (c.lookalike_drift and not unique) else st.since_aligned
+        drifted = st.drifted_frames(c.lookalike_drift and not unique)  # the estimate's drift (reacquire_drift_px)
         if measured and (np.linalg.norm(offset) <= c.reacquire_px + c.reacquire_drift_px * drifted
                          or self._surroundings_agree(A, work)):
             st.jump_seen(None, 0.0)

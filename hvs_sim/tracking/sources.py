@@ -370,6 +370,11 @@ class HybridState:
         self.jump, self.jump_frames = offset, (self.jump_frames + 1 if agrees else 1)
         return self.jump_frames
 
+    def drifted_frames(self, lookalike: bool) -> int:
+        """Frames since the last alignment over which the estimate may have drifted (HybridConfig.reacquire_drift_px
+        each): with a look-alike in view only those the predictor guessed (HybridConfig.lookalike_drift)."""
+        return self.guessed if lookalike else self.since_aligned
+
     def aligned(self, work: np.ndarray, A: np.ndarray, sources: list[MotionSource]) -> None:
         self.A = self.aligned_A = A
         self.predict_run = self.drift_run = self.since_aligned = self.guessed = 0
