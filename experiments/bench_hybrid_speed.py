@@ -37,6 +37,8 @@ TRACKERS = {  # label → (make_tracker name, settings)
     # the alignment before the leaner LK (registry: hybrid_full_lk), timed beside it
     "full_lk_similarity": ("hybrid_full_lk", {"warp": "similarity"}),
     "full_lk_homography": ("hybrid_full_lk", {"warp": "homography"}),
+    # each frame's surroundings from the frame five back alone (registry: hybrid_interleaved_hops), not also four back
+    "interleaved_hops": ("hybrid_interleaved_hops", {"warp": "similarity"}),
     "ecc": ("ecc", {}),
 }
 

@@ -6,7 +6,7 @@ import pytest
 from photos import photo
 
 from hvs_sim.errors import HvsError
-from hvs_sim.tracking import background as bg
+from hvs_sim.tracking import hop_model as hm
 from hvs_sim.tracking import make_tracker
 from hvs_sim.tracking.anchor import KeyframeAnchor
 from hvs_sim.tracking.background import (
@@ -14,15 +14,14 @@ from hvs_sim.tracking.background import (
     BackgroundConfig,
     BackgroundMotion,
     _consensus,
-    _grown_plane,
-    _hop_model,
-    _plane_refit,
 )
 from hvs_sim.tracking.evidence import ring_steadiness
 from hvs_sim.tracking.frames import roi_center
+from hvs_sim.tracking.hop_model import grown_plane, hop_model, plane_refit
 from hvs_sim.tracking.hybrid_config import PULL_CHECK_OCC, PULL_RING_STEADY
 from hvs_sim.tracking.occlusion import occlusion_fraction
-from hvs_sim.tracking.warp import apply, fit_similarity, fit_turn, similarity
+from hvs_sim.tracking.sources import covered_in_view
+from hvs_sim.tracking.warp import apply, fit_similarity, fit_turn, in_view_share, similarity, translate
 
 H, W = 480, 640
 ROI = (145, 105, 140, 90)  # inside the first flag of the flag_frame fixture (conftest.py)
@@ -107,6 +106,25 @@ def test_a_refused_hop_is_not_chained_and_the_short_hop_is_tried(flag_frame):
     assert [c[0] for c in bg.chain] == [c[0] for c in before]
 
 
+@pytest.mark.parametrize(("off", "fuse", "left"), [(0.6, True, 0.3), (3.0, True, 3.0), (0.6, False, 0.6)])
+def test_the_long_hop_is_averaged_with_the_one_frame_hop_where_they_agree(off, fuse, left, flag_frame):
+    """The frames of a 5-frame hop form five interleaved chains, each with its own error: where the hop from four
+    frames back agrees with the one from five back (FUSE_AGREE_PX), the two are averaged; where it does not, the long
+    hop stands. The chain five frames back is `off` px wrong, the one four frames back right."""
+    grey = cv2.resize(cv2.cvtColor(flag_frame, cv2.COLOR_RGB2GRAY), None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
+    d = np.array([0.6, -0.4])
+    bg = BackgroundMotion(BackgroundConfig(fuse_hops=fuse))
+    bg.start(grey)
+    for k in range(1, 5):
+        assert bg.update(shift(grey, *(k * d))) is not None
+    k0, img0, M0 = bg.chain[0]
+    bg.chain[0] = (k0, img0, similarity(off, 0.0, 0.0, 1.0) @ M0)
+    M = bg.update(shift(grey, *(5 * d)))
+    centre = np.array([[160.0, 120.0]])
+    error = apply(M, centre)[0] - (centre[0] + 5 * d)
+    assert abs(error[0] - left) < 0.1 and abs(error[1]) < 0.1, error
+
+
 def test_keyframes_are_spaced_in_time_and_the_newest_is_the_latest():
     anchor = KeyframeAnchor(BackgroundConfig(keyframes=5, spacing=10))
     img = np.zeros((8, 8), np.uint8)
@@ -179,11 +197,11 @@ def test_a_hop_is_refitted_as_a_homography_only_where_its_points_carry_one():
     src = rng.uniform([0, 0], [320, 240], (120, 2))
     dst = apply(H, src)
     S = fit_similarity(src, dst)  # the hop's consensus, as RANSAC would find it with a looser tolerance
-    M = _plane_refit(S, src, dst, (240, 320))
+    M = plane_refit(S, src, dst, (240, 320))
     assert np.abs(apply(M, src) - dst).max() < 1e-3  # the plane itself, to float precision
     strip = src[:, 0] < 60
-    assert _plane_refit(S, src[strip], dst[strip], (240, 320)) is S
-    assert _plane_refit(S, src[:15], dst[:15], (240, 320)) is S  # too few points
+    assert plane_refit(S, src[strip], dst[strip], (240, 320)) is S
+    assert plane_refit(S, src[:15], dst[:15], (240, 320)) is S  # too few points
 
 
 def turned(yaw_deg: float, pitch_deg: float, w: int = 320, h: int = 240, f: float = 300.0) -> np.ndarray:
@@ -212,7 +230,7 @@ def test_a_hop_grows_into_the_plane_that_holds_its_consensus():
     S, inl, _ = _consensus(src, dst, BackgroundConfig(), hidden=hidden, covered=True)
     assert not inl[len(wall):].any() and np.ptp(src[inl, 0]) < 80  # the wall's consensus, one strip of it
     assert np.abs(apply(S, centre) - apply(Ht, centre)).max() > 0.5
-    G = _grown_plane(S, inl, src, dst, (240, 320), BackgroundConfig().ransac_px)
+    G = grown_plane(S, inl, src, dst, (240, 320), BackgroundConfig().ransac_px)
     assert G is not None and np.abs(apply(G, centre) - apply(Ht, centre)).max() < 0.05
 
 
@@ -244,10 +262,10 @@ def test_a_strip_of_wall_beside_a_coat_over_half_the_view_is_chained_as_its_plan
     c = BackgroundConfig()
     S, inl, _ = _consensus(src, dst, c, hidden=hidden, covered=True)
     assert not inl[len(wall):].any() and inl.sum() >= 20
-    M = _hop_model(S, inl, src, dst, (h, w), c)
+    M = hop_model(S, inl, src, dst, (h, w), c)
     assert np.abs(apply(M, centre) - apply(Ht, centre)).max() < 0.15
-    monkeypatch.setattr(bg, "GROWN_PLANE_SPREAD", 0.6)  # the spread a free homography needs
-    M = _hop_model(S, inl, src, dst, (h, w), c)
+    monkeypatch.setattr(hm, "GROWN_PLANE_SPREAD", 0.6)  # the spread a free homography needs
+    M = hop_model(S, inl, src, dst, (h, w), c)
     assert np.abs(apply(M, centre) - apply(Ht, centre)).max() > 0.3
 
 
@@ -266,9 +284,9 @@ def test_a_plane_is_not_grown_over_the_coat_beside_its_strip_of_wall():
     c = BackgroundConfig()
     S, inl, occluder = _consensus(src, dst, c, hidden=hidden, covered=True)
     assert not inl[len(wall):].any() and occluder[len(wall):].mean() > 0.9 and not occluder[:len(wall)].any()
-    M = _hop_model(S, inl, src, dst, (h, w), c, occluder)
+    M = hop_model(S, inl, src, dst, (h, w), c, occluder)
     assert np.abs(apply(M, centre) - apply(Ht, centre)).max() < 0.1
-    bent = _hop_model(S, inl, src, dst, (h, w), c)  # grown among all the points
+    bent = hop_model(S, inl, src, dst, (h, w), c)  # grown among all the points
     assert np.abs(apply(bent, centre) - apply(Ht, centre)).max() > 0.5
 
 
@@ -284,9 +302,9 @@ def test_a_strip_of_wall_is_chained_as_the_cameras_turn():
     S, inl = fit_similarity(wall, dst), np.ones(len(wall), bool)
     target = np.array([[200.0, 120.0]])
     assert np.abs(apply(S, target) - apply(Ht, target)).max() > 0.5
-    M = _hop_model(S, inl, wall, dst, (240, 320), BackgroundConfig())
+    M = hop_model(S, inl, wall, dst, (240, 320), BackgroundConfig())
     assert np.abs(apply(M, target) - apply(Ht, target)).max() < 0.1
-    assert _hop_model(S, inl, wall, dst, (240, 320), BackgroundConfig(turn=False)) is S
+    assert hop_model(S, inl, wall, dst, (240, 320), BackgroundConfig(turn=False)) is S
 
 
 def test_the_cameras_turn_is_not_fitted_to_points_that_cannot_carry_it():
@@ -294,7 +312,7 @@ def test_the_cameras_turn_is_not_fitted_to_points_that_cannot_carry_it():
     S = similarity(1.0, 0.5, 0.0, 1.0)
     src = np.array([[10.0, 10.0], [10.0, 10.0]])
     assert fit_turn(S, src, apply(S, src), 320.0, np.array([159.5, 119.5])) is None
-    assert _hop_model(S, np.ones(2, bool), src, apply(S, src), (240, 320), BackgroundConfig()) is S
+    assert hop_model(S, np.ones(2, bool), src, apply(S, src), (240, 320), BackgroundConfig()) is S
 
 
 def test_a_plane_that_only_bends_to_a_few_more_points_is_not_chosen():
@@ -312,7 +330,7 @@ def test_a_plane_that_only_bends_to_a_few_more_points_is_not_chosen():
     assert inl[:len(wall)].all() and not inl[len(wall):].any()
     bent, _ = cv2.findHomography(src, dst, 0)
     assert np.abs(apply(bent / bent[2, 2], src) - dst).max() < 0.3  # the bent plane holds all 63
-    assert _grown_plane(S, inl, src, dst, (240, 320), BackgroundConfig().ransac_px) is None
+    assert grown_plane(S, inl, src, dst, (240, 320), BackgroundConfig().ransac_px) is None
 
 
 def test_a_partly_hidden_targets_own_corners_keep_the_wall_consensus():
@@ -660,3 +678,31 @@ def test_a_covered_target_stays_covered_until_its_cover_clearly_lifts(flag_frame
     st.hidden_share = 0.79
     scene.measure(work, st, peek=True)
     assert not scene.motion.covered
+
+
+@pytest.mark.parametrize(("in_view", "op_t", "covered"), [(0.15, 0.87, False), (0.5, 0.95, True), (1.0, 0.85, True)])
+def test_a_target_leaving_the_view_is_not_taken_for_covered(in_view, op_t, covered, flag_frame):
+    """OP_t counts the target's pixels outside the frame as hidden. A target 85 % out of view reading 0.87 shows its
+    part in view clear (0.13 of it differs): not covered (COVERED_OP), so the corners of that part are not taken for
+    an occluder's; half out of view and reading 0.95, the half in view is covered."""
+    path = random_walk(5, 12)
+    tr = tracking_on(flag_frame, path)
+    al, st, scene = tr.aligner, tr.state, tr.scene_motion
+    work = al.work_image(shift(flag_frame, *path[11]))
+    _, _, w, _ = ROI
+    left = apply(st.A, st.corners0)[:, 0].min()
+    st.A = translate(st.A, (-left - 0.5 - (1.0 - in_view) * w, 0.0))  # that share of the box left of the view
+    assert in_view_share(apply(al.S @ st.A, st.corners0), work.shape[:2]) == pytest.approx(in_view, abs=0.02)
+    st.hidden_share = op_t
+    scene.measure(work, st, peek=True)
+    assert scene.motion.covered is covered
+    assert covered_in_view(op_t, in_view) == pytest.approx((op_t - (1.0 - in_view)) / in_view)
+
+
+def test_the_share_of_a_box_in_view():
+    box = np.array([[10.0, 10.0], [50.0, 10.0], [50.0, 30.0], [10.0, 30.0]])
+    assert in_view_share(box, (100, 100)) == 1.0
+    assert in_view_share(box + (0.0, 80.0), (100, 100)) == pytest.approx(9.5 / 20)  # the view ends at 99.5
+    assert in_view_share(box[::-1] - (30.0, 0.0), (100, 100)) == pytest.approx(20.5 / 40)
+    assert in_view_share(box + (0.0, 200.0), (100, 100)) == 0.0
+    assert covered_in_view(0.9, 0.01) == 0.9  # nothing of it in view to judge: OP_t as read

@@ -37,8 +37,9 @@ import cv2
 import numpy as np
 
 from hvs_sim.errors import ConfigError
+from hvs_sim.tracking.hop_model import RANSAC_MAX_ITERS, RANSAC_REFINE_ITERS, hop_model, view_centre
 from hvs_sim.tracking.occlusion import median_1d
-from hvs_sim.tracking.warp import apply, fit_turn, is_affine, normalised_homography
+from hvs_sim.tracking.warp import apply, is_affine
 from hvs_sim.validate import check_flags, check_number
 
 
@@ -89,6 +90,13 @@ class BackgroundConfig:
     # within 2 px, but in the simulated scenes (a wall, a floor, people: not one plane) it replaced the finer chain of
     # hops under a partly covered target (bench track dev seeds 102-105, `partial`: 99.7 -> 97.5 % within 2 px)
     anchor_plane: bool = False
+    # each frame measured from two frames of the chain, `hop` and `hop` − 1 frames back, and the two averaged where
+    # both are taken and agree (FUSE_AGREE_PX): from one frame `hop` back, the frames form `hop` interleaved chains,
+    # each with its own error, and the estimate jumped between them by 1-3 px from frame to frame under a coat; each
+    # frame measured from two of them ties them together (docs/results.md). Not from the frame before: a person
+    # swaying slowly moves with the wall within RANSAC's 0.3 px over one frame (tracking benchmark, `partial`: within
+    # 1 px 93.0 -> 85.2 %). False: from the frame `hop` back alone
+    fuse_hops: bool = True
 
     def __post_init__(self):
         for name in ("hop", "keyframes", "spacing"):
@@ -100,7 +108,7 @@ class BackgroundConfig:
                               f"{self.ransac_px}, {self.max_fb_px}, {self.anchor_points}")
         check_number("background cell_corners", self.cell_corners, 0, integer=True)
         check_flags(self, ("competing", "homography", "grow_plane", "turn", "occluder_prior", "runner_up",
-                           "anchor_plane"))
+                           "anchor_plane", "fuse_hops"))
         if self.max_points < 8 or self.min_inliers < 4:
             raise ConfigError(f"background motion needs max_points >= 8 and min_inliers >= 4, "
                               f"got {self.max_points}, {self.min_inliers}")
@@ -111,7 +119,6 @@ class BackgroundConfig:
 
 COMPETING_SHARE = 0.2  # a second consensus this large (of the first's inliers) competes with it
 LK_MAX_ITERATIONS, LK_EPS = 30, 0.01  # pyramidal LK stopping rule per level (OpenCV's defaults)
-RANSAC_MAX_ITERS, RANSAC_REFINE_ITERS = 500, 10  # enough for 30 % inliers among 200 corners
 CORNER_BLOCK_SIZE = 7  # goodFeaturesToTrack's structure-tensor window (work px)
 CELL_GRID = 4  # BackgroundConfig.cell_corners: the view cut into 4 × 4 parts
 HIDDEN_DILATE = 1.25  # the hidden target's box, grown about its centre: corners there are the occluder's
@@ -135,28 +142,8 @@ CLEAR_OP = 0.15
 COVERED_SHRINK = 0.8
 COVERED_MIN_POINTS = 3
 OCCLUDER_MISS_PX = 2.0  # ... and moving no more than this further from the scene's expected motion than the first
-# a hop refitted as a homography (BackgroundConfig.homography): on at least this many inliers, spread over at least
-# this share of the view's width and height, and moving the view's centre within HOMOGRAPHY_AGREE_PX of the similarity
-HOMOGRAPHY_MIN_INLIERS = 20
-HOMOGRAPHY_SPREAD = 0.6
-HOMOGRAPHY_AGREE_PX = 1.0
-# the plane grown from a hop's similarity consensus (BackgroundConfig.grow_plane): RANSAC homographies over all followed
-# points, up to PLANE_MODELS of them (each among the points the ones before did not take: a coat's own consensus can be
-# the largest), the first that holds PLANE_KEEP of the similarity's inliers being the plane that contains them
-PLANE_MODELS = 3
-PLANE_KEEP = 0.8
-# ... spread over this share of the view both ways (GRIC judges the rest): beside a coat over half the view, strips of
-# 0.2-0.35 of it, whose similarity or turn missed the hidden target by 0.3-1.5 work px a hop (docs/results.md)
-GROWN_PLANE_SPREAD = 0.3
-# GRIC (Torr, "Geometric motion segmentation and model selection", 1998) for a 2-D point transfer: residuals in units of
-# the noise σ (half the RANSAC threshold), each capped at λ3·(r − d) = 2·(4 − 2) = 4 (an outlier's cost); a model pays
-# log(r·n) per parameter (similarity 4, camera turn 6, homography 8). The λ1·d·n term is the same for both and cancels
-GRIC_CAP = 4.0
-GRIC_R = 4
-SIMILARITY_DOF, TURN_DOF, HOMOGRAPHY_DOF = 4, 6, 8
-# the nominal focal length of the camera's turn (BackgroundConfig.turn), in widths of the view: a phone's or webcam's
-# ~50-60° field. The fit barely depends on it (dev split, the coat's hops: 0.6 and 1.6 widths within 0.02 work px)
-TURN_FOCAL = 1.0
+# BackgroundConfig.fuse_hops: the two hops' measurements are averaged where they agree this well (work px)
+FUSE_AGREE_PX = 1.0
 
 
 def _lk_params(c: BackgroundConfig) -> dict:
@@ -262,72 +249,6 @@ def _trusted_similarity(src: np.ndarray, dst: np.ndarray, c: BackgroundConfig) -
     return _consensus(src, dst, c)[0]
 
 
-def _carries_plane(pts: np.ndarray, shape: tuple[int, int], spread: float = HOMOGRAPHY_SPREAD) -> bool:
-    """Whether a hop's points can carry a homography: HOMOGRAPHY_MIN_INLIERS of them, spread over `spread` of the
-    view both ways (a strip of wall extrapolates one badly)."""
-    h, w = shape
-    return len(pts) >= HOMOGRAPHY_MIN_INLIERS and bool(np.ptp(pts[:, 0]) >= spread * w) and \
-        bool(np.ptp(pts[:, 1]) >= spread * h)
-
-
-def _plane_refit(S: np.ndarray, src: np.ndarray, dst: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """The hop's similarity consensus (`src` → `dst`, its inliers) refitted as a homography where the points can
-    carry one (HOMOGRAPHY_*), else S."""
-    if not _carries_plane(src, shape):
-        return S
-    H = normalised_homography(cv2.findHomography(src, dst, 0)[0])
-    if H is None:
-        return S
-    centre = _view_centre(shape)[None]
-    return H if np.linalg.norm(apply(H, centre) - apply(S, centre)) <= HOMOGRAPHY_AGREE_PX else S
-
-
-def _view_centre(shape: tuple[int, int]) -> np.ndarray:
-    """The centre (x, y) of a view `shape` (h, w) pixels."""
-    h, w = shape
-    return np.array([(w - 1) / 2.0, (h - 1) / 2.0])
-
-
-def _gric(M: np.ndarray, src: np.ndarray, dst: np.ndarray, sigma: float, dof: int) -> float:
-    """GRIC of the 2-D transfer M over the correspondences src → dst (lower is better; GRIC_* above)."""
-    e2 = np.sum((apply(M, src) - dst) ** 2, axis=1) / sigma ** 2
-    return float(np.minimum(e2, GRIC_CAP).sum() + dof * np.log(GRIC_R * len(src)))
-
-
-def _gric_prefers(M: np.ndarray, dof: int, S: np.ndarray, src: np.ndarray, dst: np.ndarray, ransac_px: float) -> bool:
-    """Whether GRIC prefers M (`dof` parameters) to the similarity S over src → dst, σ half the RANSAC threshold
-    (False where either is not finite)."""
-    sigma = ransac_px / 2
-    return bool(_gric(M, src, dst, sigma, dof) < _gric(S, src, dst, sigma, SIMILARITY_DOF))
-
-
-def _grown_plane(S: np.ndarray, inl: np.ndarray, src: np.ndarray, dst: np.ndarray, shape: tuple[int, int],
-                 ransac_px: float, occluder: np.ndarray | None = None) -> np.ndarray | None:
-    """The homography of the plane that contains the similarity consensus (S, its inliers `inl`) among the followed
-    points src → dst but the `occluder`'s, where its inliers spread over the view (GROWN_PLANE_SPREAD) and GRIC
-    prefers it to S; else None (PLANE_*, GRIC_*). A coat beside a strip of wall moved 1 px apart from it over a hop,
-    and a homography bent across both fits them (a shear), placing the hidden target by the coat's motion."""
-    left = np.ones(len(src), bool) if occluder is None else ~occluder
-    for _ in range(PLANE_MODELS):
-        idx = np.flatnonzero(left)
-        if len(idx) < HOMOGRAPHY_MIN_INLIERS:
-            return None
-        found, mask = cv2.findHomography(src[idx], dst[idx], cv2.RANSAC, ransac_px, maxIters=RANSAC_MAX_ITERS)
-        H = normalised_homography(found)
-        if H is None:
-            return None
-        plane = np.zeros(len(src), bool)
-        plane[idx[mask[:, 0].astype(bool)]] = True
-        if (plane & inl).sum() >= PLANE_KEEP * inl.sum():
-            break
-        left &= ~plane
-    else:
-        return None
-    if not _carries_plane(src[plane], shape, GROWN_PLANE_SPREAD):
-        return None
-    return H if _gric_prefers(H, HOMOGRAPHY_DOF, S, src, dst, ransac_px) else None
-
-
 def _corners(img: np.ndarray, c: BackgroundConfig, limit: int) -> np.ndarray | None:
     """Corners (N×2 float32) to follow: the `limit` strongest, and at least `cell_corners` in each part of the view
     that has any (at that part's own contrast)."""
@@ -364,24 +285,6 @@ def _transform(pts: np.ndarray, M: np.ndarray) -> np.ndarray:
     return out.astype(np.float32)
 
 
-def _hop_model(S: np.ndarray, inl: np.ndarray, src: np.ndarray, dst: np.ndarray, shape: tuple[int, int],
-               c: BackgroundConfig, occluder: np.ndarray | None = None) -> np.ndarray:
-    """The motion a hop chains, from its similarity consensus (S, its inliers `inl` among src → dst): the plane that
-    contains it (grow_plane), else its inliers' homography where they carry one, else their camera turn where GRIC
-    prefers it on them (turn), else S."""
-    grown = _grown_plane(S, inl, src, dst, shape, c.ransac_px, occluder) if c.grow_plane else None
-    if grown is not None:
-        return grown
-    p, q = src[inl], dst[inl]
-    refit = _plane_refit(S, p, q, shape)
-    if refit is not S or not c.turn:
-        return refit
-    turned = fit_turn(S, p, q, TURN_FOCAL * shape[1], _view_centre(shape))
-    if turned is None or not _gric_prefers(turned, TURN_DOF, S, p, q, c.ransac_px):
-        return S  # a strip that moves as a similarity: the turn's two more parameters would only fit its noise
-    return turned
-
-
 def _per_frame(S: np.ndarray, frames: int) -> np.ndarray:
     """The similarity that, applied `frames` times, gives S (its rotation, log-scale and translation shared out)."""
     if frames == 1:
@@ -414,6 +317,7 @@ class BackgroundMotion:
         kept unless `forget_motion` (a new target): it still tells the wall from a coat."""
         # (frame number, image, keyframe → image)
         self.chain: deque[tuple[int, np.ndarray, np.ndarray]] = deque(maxlen=self.config.hop)
+        self._corner_cache: deque[tuple[np.ndarray, np.ndarray | None]] = deque(maxlen=self.config.hop + 1)
         self.frame = 0
         self.covered = False  # the hidden target is covered (COVERED_OP): set by the caller for each frame
         if forget_motion or not hasattr(self, "velocity"):
@@ -430,13 +334,23 @@ class BackgroundMotion:
         no trustworthy one. `hidden`: the hidden target's box in `src` (4×2), or None."""
         return next(self._candidates(src, grey, frames, hidden), None)
 
+    def _corners_of(self, src: np.ndarray) -> np.ndarray | None:
+        """The corners to follow from `src` (_corners), found once per image: with `fuse_hops` each frame of the
+        chain starts two hops."""
+        for image, pts in self._corner_cache:
+            if image is src:
+                return pts
+        pts = _corners(src, self.config, self.config.max_points)
+        self._corner_cache.append((src, pts))
+        return pts
+
     def _candidates(self, src: np.ndarray, grey: np.ndarray, frames: int, hidden: np.ndarray | None
                     ) -> Iterator[tuple[np.ndarray, np.ndarray]]:
         """The hop's motions src → `grey` (each with its similarity), best first: the consensus `_consensus` chooses,
         then (BackgroundConfig.runner_up) the largest consensus among the points it did not hold, which a caller that
         refuses the first can take (`update`)."""
         c = self.config
-        pts = _corners(src, c, c.max_points)
+        pts = self._corners_of(src)
         if pts is None or len(pts) < c.min_inliers:
             return
         nxt, ok = _lk_checked(src, grey, pts, c)
@@ -449,7 +363,7 @@ class BackgroundMotion:
                                       self.covered and c.occluder_prior)
         if S is None:
             return
-        yield (_hop_model(S, inl, p, q, src.shape[:2], c, occluder) if c.homography else S), S
+        yield (hop_model(S, inl, p, q, src.shape[:2], c, occluder) if c.homography else S), S
         if not c.runner_up or expected is None:
             return
         # the first was refused (a coat sweeping in, which holds most corners, jumps past the gate): the wall is among
@@ -465,7 +379,7 @@ class BackgroundMotion:
         second[rest[inl2]] = True
         if hidden is not None and _near(p[second], hidden).any():  # the wall has no corners on the hidden target
             return
-        yield (_hop_model(S2, second, p, q, src.shape[:2], c, inl) if c.homography else S2), S2  # the first: a coat's
+        yield (hop_model(S2, second, p, q, src.shape[:2], c, inl) if c.homography else S2), S2  # the first: a coat's
 
     def update(self, grey: np.ndarray, hidden: np.ndarray | None = None,
                accept: Callable[[np.ndarray], bool] | None = None) -> np.ndarray | None:
@@ -477,7 +391,8 @@ class BackgroundMotion:
         Measured from the frame `hop` steps back in the chain when it is there, else from the
         last one: a person standing almost still moves a fraction of a pixel per frame, within
         RANSAC's tolerance, but several pixels over a few frames, where RANSAC rejects them. Where the long hop's
-        consensus is refused (a coat sweeping in gives the only one of the 5-frame hop), the short one is tried."""
+        consensus is refused (a coat sweeping in gives the only one of the 5-frame hop), the short one is tried. A long
+        hop taken is averaged with the hop from the frame after its start (`fuse_hops`, _fused)."""
         self.frame += 1
         sources = list(self.chain)[:1] if len(self.chain) == self.config.hop > 1 else []
         sources += list(self.chain)[-1:]
@@ -486,10 +401,29 @@ class BackgroundMotion:
                 M = model @ M_src
                 if accept is not None and not accept(M):
                     continue
+                if self.config.fuse_hops and len(sources) == 2 and k == sources[0][0] and len(self.chain) > 2:
+                    M = self._fused(M, self.chain[1], grey, hidden, accept)
                 self.chain.append((self.frame, grey, M))
                 self.velocity, self.velocity_age = _per_frame(S, self.frame - k), (self.frame - k - 1) / 2
                 return M
         return None
+
+    def _fused(self, M: np.ndarray, other: tuple[int, np.ndarray, np.ndarray], grey: np.ndarray,
+               hidden: np.ndarray | None, accept: Callable[[np.ndarray], bool] | None) -> np.ndarray:
+        """The long hop's keyframe → `grey` (M) averaged with the one measured from the chain's `other` frame, where
+        that is measured, taken by the caller and within FUSE_AGREE_PX of M at the hidden target (the view's centre
+        without one); else M (BackgroundConfig.fuse_hops)."""
+        k, src, M_src = other
+        found = next(self._candidates(src, grey, self.frame - k, hidden), None)
+        if found is None:
+            return M
+        M_short = found[0] @ M_src
+        if accept is not None and not accept(M_short):
+            return M
+        at = (hidden.mean(0) if hidden is not None else view_centre(grey.shape[:2]))[None]
+        if np.linalg.norm(apply(M_short @ np.linalg.inv(M), at) - at) > FUSE_AGREE_PX:
+            return M
+        return 0.5 * (M / M[2, 2] + M_short / M_short[2, 2])
 
     def peek(self, key: np.ndarray, grey: np.ndarray, hidden: np.ndarray | None = None) -> np.ndarray | None:
         """What `update` would answer for `grey` from the chain's last frame (`key` where the chain has not started),

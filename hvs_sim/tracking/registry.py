@@ -107,6 +107,10 @@ TRACKERS: dict[str, TrackerSpec] = {
     "hybrid_first_consensus": TrackerSpec("hybrid", {"background_config": {"runner_up": False}},
                                           "a hop whose consensus the gate refuses offers no other, not the consensus "
                                           "among the points the first did not hold", "#9c9ede"),
+    "hybrid_interleaved_hops": TrackerSpec("hybrid", {"background_config": {"fuse_hops": False}},
+                                           "each frame's surroundings measured from the frame five back alone (five "
+                                           "interleaved chains), not also from four back and the two averaged",
+                                           "#fd8d3c"),
     "hybrid_steady_gate": TrackerSpec("hybrid", {"background_gate_sway": False},
                                       "the surroundings' gate is the same for every view, not widened by how much "
                                       "the view's per-frame motion has been changing", "#bd9e39"),

@@ -25,7 +25,7 @@ from hvs_sim.tracking.anchor import KeyframeAnchor
 from hvs_sim.tracking.background import CLEAR_OP, COVERED_OP, BackgroundConfig, BackgroundMotion
 from hvs_sim.tracking.base import Mode
 from hvs_sim.tracking.predictors import MotionPredictor
-from hvs_sim.tracking.warp import apply, matrix_to_pose, translate
+from hvs_sim.tracking.warp import apply, in_view_share, matrix_to_pose, translate
 
 if TYPE_CHECKING:  # pragma: no cover
     from hvs_sim.tracking.aligner import Aligner
@@ -79,6 +79,19 @@ QUICK_LEVELS = 2
 # this: under a coat OP_t read 0.80-0.82 frame after frame and dipped to 0.797, and on those frames the coat's
 # consensus, moving with the view one way but not the other, was chained (photos' dev split, `long` aero, seed 7)
 COVERED_HOLD_OP = 0.6
+# covered_in_view: below this share of the target's box in the view, its OP_t stands as measured
+IN_VIEW_MIN = 0.05
+
+
+def covered_in_view(op: float, in_view: float) -> float:
+    """The share of the target's pixels in view that something covers, from OP_t (`op`), which counts its pixels
+    outside the frame as covered too, and the share of its box in view. A target leaving the view is not hidden behind
+    anything: taken for covered, the wall's consensus, holding the corners of the target's part still in view, was
+    ruled out as the occluder's and a 13-corner strip chained instead (photos' dev split, a `clear` sequence). OP_t
+    itself where almost nothing of the target is in view (IN_VIEW_MIN)."""
+    if in_view <= IN_VIEW_MIN:
+        return op
+    return min(max((op - (1.0 - in_view)) / in_view, 0.0), 1.0)
 
 
 class KeyframeAnchorSource:
@@ -189,8 +202,10 @@ class SceneMotionSource:
         (HybridTracker._verified)."""
         key_work, A_key = self.key
         # a target in view (CLEAR_OP) is no occluder's: its box's corners are its own and move with the scene
-        hidden = apply(self.aligner.S @ state.A, state.corners0) if state.hidden_share > CLEAR_OP else None
-        self._covered = state.hidden_share >= (COVERED_HOLD_OP if self._covered else COVERED_OP)
+        box = apply(self.aligner.S @ state.A, state.corners0)
+        covered = covered_in_view(state.hidden_share, in_view_share(box, work.shape[:2]))
+        hidden = box if covered > CLEAR_OP else None
+        self._covered = covered >= (COVERED_HOLD_OP if self._covered else COVERED_OP)
         self.motion.covered = self._covered
         al = self.aligner
 

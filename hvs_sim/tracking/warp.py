@@ -110,6 +110,22 @@ def apply(A: np.ndarray, pts: np.ndarray) -> np.ndarray:
     return out / w[:, None]
 
 
+def in_view_share(box: np.ndarray, shape: tuple[int, int]) -> float:
+    """The share of the convex quadrilateral `box` (4×2, px) that lies in a view `shape` (h, w) pixels: 1 all in view,
+    0 none (1 for a degenerate box, which has no area to share out)."""
+    h, w = shape
+    pts = np.asarray(box, float)
+    if np.all((pts >= -0.5) & (pts <= (w - 0.5, h - 0.5))):
+        return 1.0
+    quad = pts.astype(np.float32).reshape(-1, 1, 2)
+    area = abs(float(cv2.contourArea(quad)))
+    if not area > 0:
+        return 1.0
+    view = np.float32([[-0.5, -0.5], [w - 0.5, -0.5], [w - 0.5, h - 0.5], [-0.5, h - 0.5]]).reshape(-1, 1, 2)
+    inside, _ = cv2.intersectConvexConvex(quad, view)
+    return min(max(float(inside) / area, 0.0), 1.0)
+
+
 def fit_similarity(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     """Least-squares similarity (3×3) taking points src → dst (Umeyama, no reflection)."""
     src, dst = np.asarray(src, float), np.asarray(dst, float)
