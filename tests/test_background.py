@@ -6,6 +6,7 @@ import pytest
 from photos import photo
 
 from hvs_sim.errors import HvsError
+from hvs_sim.tracking import background as background_module
 from hvs_sim.tracking import hop_model as hm
 from hvs_sim.tracking import make_tracker
 from hvs_sim.tracking.anchor import KeyframeAnchor
@@ -107,10 +108,11 @@ def test_a_refused_hop_is_not_chained_and_the_short_hop_is_tried(flag_frame):
 
 
 @pytest.mark.parametrize(("off", "fuse", "left"), [(0.6, True, 0.3), (3.0, True, 3.0), (0.6, False, 0.6)])
-def test_the_long_hop_is_averaged_with_the_one_frame_hop_where_they_agree(off, fuse, left, flag_frame):
+def test_the_long_hop_is_averaged_with_the_hop_from_four_frames_back_where_they_agree(off, fuse, left, flag_frame):
     """The frames of a 5-frame hop form five interleaved chains, each with its own error: where the hop from four
     frames back agrees with the one from five back (FUSE_AGREE_PX), the two are averaged; where it does not, the long
-    hop stands. The chain five frames back is `off` px wrong, the one four frames back right."""
+    hop stands. The chain five frames back is `off` px wrong, the one four frames back right (the agreement is
+    judged at the view's centre here, with no hidden target)."""
     grey = cv2.resize(cv2.cvtColor(flag_frame, cv2.COLOR_RGB2GRAY), None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
     d = np.array([0.6, -0.4])
     bg = BackgroundMotion(BackgroundConfig(fuse_hops=fuse))
@@ -123,6 +125,36 @@ def test_the_long_hop_is_averaged_with_the_one_frame_hop_where_they_agree(off, f
     centre = np.array([[160.0, 120.0]])
     error = apply(M, centre)[0] - (centre[0] + 5 * d)
     assert abs(error[0] - left) < 0.1 and abs(error[1]) < 0.1, error
+
+
+@pytest.mark.parametrize(("hop", "refuse_second", "left"), [(5, True, 0.6), (2, False, 0.6), (3, False, 0.3)])
+def test_the_hops_are_averaged_only_where_the_second_is_taken_and_the_hop_is_long(hop, refuse_second, left, flag_frame,
+                                                                                   monkeypatch):
+    """The second measurement the caller refuses is not averaged in; a hop of 2 frames has no second frame far enough
+    back (a one-frame hop moves with a slowly swaying person), one of 3 does. Each chain frame's corners are found
+    once, though it starts two hops."""
+    grey = cv2.resize(cv2.cvtColor(flag_frame, cv2.COLOR_RGB2GRAY), None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
+    d = np.array([0.6, -0.4])
+    found = []
+    corners = background_module._corners
+    monkeypatch.setattr(background_module, "_corners", lambda img, *args: found.append(img) or corners(img, *args))
+    motion = BackgroundMotion(BackgroundConfig(hop=hop))
+    motion.start(grey)
+    for k in range(1, hop):
+        assert motion.update(shift(grey, *(k * d))) is not None
+    k0, img0, M0 = motion.chain[0]
+    motion.chain[0] = (k0, img0, similarity(0.6, 0.0, 0.0, 1.0) @ M0)
+    asked = []
+
+    def gate(M):
+        asked.append(M)
+        return not (refuse_second and len(asked) == 2)
+
+    M = motion.update(shift(grey, *(hop * d)), accept=gate)
+    centre = np.array([[160.0, 120.0]])
+    error = apply(M, centre)[0] - (centre[0] + hop * d)
+    assert abs(error[0] - left) < 0.1 and abs(error[1]) < 0.1, error
+    assert len(found) == len({id(img) for img in found}) == hop - 1  # the frames 0 .. hop − 2 start hops, once each
 
 
 def test_keyframes_are_spaced_in_time_and_the_newest_is_the_latest():

@@ -16,12 +16,12 @@ import numpy as np
 # the chain's corner, LK and RANSAC helpers (background.py), shared so that both measure the scene the same way
 from hvs_sim.tracking.background import (
     CORNER_BLOCK_SIZE,
-    RANSAC_MAX_ITERS,
     BackgroundConfig,
     _lk_checked,
     _transform,
     _trusted_similarity,
 )
+from hvs_sim.tracking.hop_model import RANSAC_MAX_ITERS
 from hvs_sim.tracking.warp import normalised_homography, warp_image
 
 # KeyframeAnchor's plane (BackgroundConfig.anchor_plane): a keyframe's homography counts on at least this many inliers

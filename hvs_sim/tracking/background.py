@@ -37,7 +37,7 @@ import cv2
 import numpy as np
 
 from hvs_sim.errors import ConfigError
-from hvs_sim.tracking.hop_model import RANSAC_MAX_ITERS, RANSAC_REFINE_ITERS, hop_model, view_centre
+from hvs_sim.tracking.hop_model import RANSAC_MAX_ITERS, hop_model, view_centre
 from hvs_sim.tracking.occlusion import median_1d
 from hvs_sim.tracking.warp import apply, is_affine
 from hvs_sim.validate import check_flags, check_number
@@ -73,7 +73,7 @@ class BackgroundConfig:
     # (module docstring); False: the refit on the similarity's own inliers only
     grow_plane: bool = True
     # ... and a hop neither refits nor grows into a plane is refitted on its inliers as the camera's turn
-    # (warp.fit_turn: a similarity after a rotation about the camera's centre, TURN_FOCAL) instead of kept a similarity
+    # (warp.fit_turn: a similarity after a rotation about the camera's centre, hop_model.TURN_FOCAL) instead of kept a similarity
     turn: bool = True
     occluder_prior: bool = True  # a consensus on the hidden target is the occluder's (module docstring)
     # a hop whose consensus the caller refuses (the hybrid's gate: it jumps) offers the consensus among the points the
@@ -90,8 +90,8 @@ class BackgroundConfig:
     # within 2 px, but in the simulated scenes (a wall, a floor, people: not one plane) it replaced the finer chain of
     # hops under a partly covered target (bench track dev seeds 102-105, `partial`: 99.7 -> 97.5 % within 2 px)
     anchor_plane: bool = False
-    # each frame measured from two frames of the chain, `hop` and `hop` − 1 frames back, and the two averaged where
-    # both are taken and agree (FUSE_AGREE_PX): from one frame `hop` back, the frames form `hop` interleaved chains,
+    # each frame measured from two frames of the chain, `hop` and `hop` − FUSE_NEARER frames back (with `hop` over 2),
+    # and the two averaged where both are taken and agree at the hidden target's centre (FUSE_AGREE_PX): from one frame `hop` back, the frames form `hop` interleaved chains,
     # each with its own error, and the estimate jumped between them by 1-3 px from frame to frame under a coat; each
     # frame measured from two of them ties them together (docs/results.md). Not from the frame before: a person
     # swaying slowly moves with the wall within RANSAC's 0.3 px over one frame (tracking benchmark, `partial`: within
@@ -118,6 +118,7 @@ class BackgroundConfig:
 
 
 COMPETING_SHARE = 0.2  # a second consensus this large (of the first's inliers) competes with it
+RANSAC_REFINE_ITERS = 10  # the similarity's refinement on its inliers
 LK_MAX_ITERATIONS, LK_EPS = 30, 0.01  # pyramidal LK stopping rule per level (OpenCV's defaults)
 CORNER_BLOCK_SIZE = 7  # goodFeaturesToTrack's structure-tensor window (work px)
 CELL_GRID = 4  # BackgroundConfig.cell_corners: the view cut into 4 × 4 parts
@@ -144,6 +145,9 @@ COVERED_MIN_POINTS = 3
 OCCLUDER_MISS_PX = 2.0  # ... and moving no more than this further from the scene's expected motion than the first
 # BackgroundConfig.fuse_hops: the two hops' measurements are averaged where they agree this well (work px)
 FUSE_AGREE_PX = 1.0
+# ... the second measured from this many frames nearer than the long hop's start: 1 (the frame `hop` − 1 back) was
+# chosen over the frame before, whose one-frame hop a slowly swaying person moves with (docs/tuning.md)
+FUSE_NEARER = 1
 
 
 def _lk_params(c: BackgroundConfig) -> dict:
@@ -331,7 +335,8 @@ class BackgroundMotion:
     def step(self, src: np.ndarray, grey: np.ndarray, frames: int = 1, hidden: np.ndarray | None = None
              ) -> tuple[np.ndarray, np.ndarray] | None:
         """The scene's motion from `src` to `grey` (`frames` apart) and its similarity, or None when the scene gives
-        no trustworthy one. `hidden`: the hidden target's box in `src` (4×2), or None."""
+        no trustworthy one. `hidden`: the hidden target's box in `src` (4×2), or None. `src`'s corners are kept for
+        the array object (_corners_of): pass a new array for a new image, not a reused buffer."""
         return next(self._candidates(src, grey, frames, hidden), None)
 
     def _corners_of(self, src: np.ndarray) -> np.ndarray | None:
@@ -401,8 +406,9 @@ class BackgroundMotion:
                 M = model @ M_src
                 if accept is not None and not accept(M):
                     continue
-                if self.config.fuse_hops and len(sources) == 2 and k == sources[0][0] and len(self.chain) > 2:
-                    M = self._fused(M, self.chain[1], grey, hidden, accept)
+                if self.config.fuse_hops and len(sources) == 2 and k == sources[0][0] and \
+                        self.config.hop - FUSE_NEARER > 1:
+                    M = self._fused(M, self.chain[FUSE_NEARER], grey, hidden, accept)
                 self.chain.append((self.frame, grey, M))
                 self.velocity, self.velocity_age = _per_frame(S, self.frame - k), (self.frame - k - 1) / 2
                 return M

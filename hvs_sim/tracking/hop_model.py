@@ -17,11 +17,17 @@ from hvs_sim.tracking.warp import apply, fit_turn, normalised_homography
 class HopSettings(Protocol):
     """What hop_model reads of background.BackgroundConfig (named here so that this module needs nothing of it)."""
 
-    ransac_px: float
-    grow_plane: bool
-    turn: bool
+    @property
+    def ransac_px(self) -> float: ...
 
-RANSAC_MAX_ITERS, RANSAC_REFINE_ITERS = 500, 10  # enough for 30 % inliers among 200 corners
+    @property
+    def grow_plane(self) -> bool: ...
+
+    @property
+    def turn(self) -> bool: ...
+
+
+RANSAC_MAX_ITERS = 500  # enough for 30 % inliers among 200 corners (RANSAC here, in background.py and anchor.py)
 # a hop refitted as a homography (BackgroundConfig.homography): on at least this many inliers, spread over at least
 # this share of the view's width and height, and moving the view's centre within HOMOGRAPHY_AGREE_PX of the similarity
 HOMOGRAPHY_MIN_INLIERS = 20
