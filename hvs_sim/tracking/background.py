@@ -73,7 +73,8 @@ class BackgroundConfig:
     # (module docstring); False: the refit on the similarity's own inliers only
     grow_plane: bool = True
     # ... and a hop neither refits nor grows into a plane is refitted on its inliers as the camera's turn
-    # (warp.fit_turn: a similarity after a rotation about the camera's centre, hop_model.TURN_FOCAL) instead of kept a similarity
+    # (warp.fit_turn: a similarity after a rotation about the camera's centre, hop_model.TURN_FOCAL) instead of kept
+    # a similarity
     turn: bool = True
     occluder_prior: bool = True  # a consensus on the hidden target is the occluder's (module docstring)
     # a hop whose consensus the caller refuses (the hybrid's gate: it jumps) offers the consensus among the points the
@@ -91,9 +92,10 @@ class BackgroundConfig:
     # hops under a partly covered target (bench track dev seeds 102-105, `partial`: 99.7 -> 97.5 % within 2 px)
     anchor_plane: bool = False
     # each frame measured from two frames of the chain, `hop` and `hop` − FUSE_NEARER frames back (with `hop` over 2),
-    # and the two averaged where both are taken and agree at the hidden target's centre (FUSE_AGREE_PX): from one frame `hop` back, the frames form `hop` interleaved chains,
-    # each with its own error, and the estimate jumped between them by 1-3 px from frame to frame under a coat; each
-    # frame measured from two of them ties them together (docs/results.md). Not from the frame before: a person
+    # and the two averaged where both are taken and agree at the hidden target's centre (FUSE_AGREE_PX): from one
+    # frame `hop` back, the frames form `hop` interleaved chains, each with its own error, and the estimate jumped
+    # between them by 1-3 px from frame to frame under a coat; each frame measured from two of them ties them together
+    # (docs/results.md). Not from the frame before: a person
     # swaying slowly moves with the wall within RANSAC's 0.3 px over one frame (tracking benchmark, `partial`: within
     # 1 px 93.0 -> 85.2 %). False: from the frame `hop` back alone
     fuse_hops: bool = True
