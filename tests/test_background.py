@@ -609,6 +609,22 @@ def test_an_alignment_an_occluder_pulled_is_not_taken(check, flag_frame, monkeyp
     assert not tr._pulled(frame, true, seen(true), work)
 
 
+@pytest.mark.parametrize("carried", [True, False])
+def test_a_far_pull_is_checked_after_frames_the_surroundings_measured_and_not_after_guesses(carried, flag_frame):
+    """The same coat, the target aligned 3 frames before and carried by the surroundings since: their pose, chained
+    over several hops, stands for the target's within PULL_FAR_PX, so a 2.5 px pull is no longer told from their own
+    error and is taken, and a 6 px one is refused (`pull_check_carried`; without, neither is checked). After a frame
+    the predictor guessed (drift_run) the surroundings' pose is no measurement and the check does not run."""
+    tr, frame, work, true, seen = coat_over_a_quarter(flag_frame, pull_check_carried=carried)
+    near, far = (similarity(d, 0.0, 0.0, 1.0) @ true for d in (2.5, 6.0))
+    tr.state.since_aligned = 3
+    assert tr._pulled(frame, far, seen(far), work) is carried
+    assert not tr._pulled(frame, near, seen(near), work)
+    assert not tr._pulled(frame, true, seen(true), work)
+    tr.state.drift_run = 1
+    assert not tr._pulled(frame, far, seen(far), work)
+
+
 def test_a_pull_on_a_low_contrast_target_is_seen_where_op_t_is_blind(flag_frame, monkeypatch):
     """The same coat and pull on the flags at a sixth of their contrast: OP_t no longer rises at the pulled pose (the
     misalignment stays under τ), but the template's best-fitting visible pixels fit worse there than at the

@@ -361,6 +361,34 @@ def test_an_alignment_is_shown_clearly_only_by_about_what_tells_the_two_poses_ap
         assert al.shows_clearly(work, near, far, 0.9, 0.0) and not al.shows_clearly(work, near, far, 0.9, evidence)
 
 
+def test_a_template_that_cannot_tell_two_poses_apart_shows_neither_clearly():
+    """Aligner.shows_clearly with `discernible`: a template shading only downwards is the same 12 px to the side, so
+    the frame cannot say which of two such poses is right, however their fits differ (a coat over more of one); a
+    textured template tells them apart, and the right one is shown clearly."""
+    from hvs_sim.tracking.aligner import Aligner
+    from hvs_sim.tracking.hybrid_config import hybrid_deep_config
+    from hvs_sim.tracking.warp import similarity
+
+    rng = np.random.default_rng(5)
+    x, y, w, h = ROI
+    shaded = np.repeat(np.linspace(100, 140, 480, dtype=np.float32)[:, None], 640, 1)
+    for base, flat in ((shaded, True), (_frame("brick", 3).astype(np.float32), False)):
+        img = np.clip(base if base.ndim == 3 else np.dstack([base] * 3), 0, 255).astype(np.uint8)
+        al = Aligner(hybrid_deep_config())
+        al.set_template(img, ROI)
+        frame = np.clip(img + rng.normal(0, 2, img.shape), 0, 255).astype(np.uint8)
+        coat = np.kron(rng.integers(20, 235, (h // 8 + 1, w // 8 + 1)), np.ones((8, 8)))[:h, :int(0.6 * w)]
+        frame[y:y + h, x:x + int(0.6 * w)] = coat[..., None].astype(np.uint8)  # over 60 % of the true pose
+        work = al.work_image(frame)
+        true, aside = al.to_work(np.eye(3)), al.to_work(similarity(12.0, 0.0, 0.0, 1.0))
+        if flat:  # the pose aside shows more of the (featureless) target, and fits better
+            assert al.shows_clearly(work, aside, true, 0.5, 0.0)
+            assert not al.shows_clearly(work, aside, true, 0.5, 0.0, discernible=True)
+        else:
+            assert al.shows_clearly(work, true, aside, 0.35, 0.0, discernible=True)
+            assert not al.shows_clearly(work, aside, true, 0.35, 0.0, discernible=True)
+
+
 @pytest.mark.parametrize("lookalike_drift", [True, False])
 def test_with_a_look_alike_in_view_a_far_reacquisition_is_not_put_down_to_the_surroundings_drift(lookalike_drift,
                                                                                                   monkeypatch):

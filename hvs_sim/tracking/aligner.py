@@ -250,17 +250,17 @@ class Aligner:
         return self.reference.trusted_gain(patch, inside)
 
     def shows_clearly(self, work: np.ndarray, A_work: np.ndarray, B_work: np.ndarray, visible: float,
-                      evidence: float) -> bool:
+                      evidence: float, discernible: bool = False) -> bool:
         """Whether the frame shows the template clearly better at A_work than at B_work. Fit: the mean absolute grey
         residual, after each pose's exposure gain, over the share `visible` of the template's pixels that fit best
         (least trimmed residuals): an occluder's pixels fit badly at both poses and are trimmed, so the visible
-        target's pixels decide, its edges included (OP_t's τ = 30 is blind to a few pixels' misalignment of a
-        low-contrast target). Clearly: by at least the share `evidence` of what the template tells the two poses apart by,
-        the same trimmed mean of its differences from itself moved from one pose to the other. Where A is right, B's
-        fit is worse by about that much; where the two fits are closer than that, the frame does not say which is
-        right: on a smooth photo a coat's edge over a quarter of it pulled the alignment 4 px and fitted 0.3 grey
-        levels better, where the template differs from itself 4 px away by 1.3 (photos' dev split, `long` ascent).
-        Both poses carry the target's perspective (`shape`)."""
+        target's pixels decide, its edges included (OP_t's τ = 30 is blind to a low-contrast target's misalignment).
+        Clearly: by at least the share `evidence` of what the template tells the two poses apart by, the same trimmed
+        mean of its differences from itself moved from one pose to the other; closer fits do not say which is right (a
+        coat's edge on a smooth photo pulled an alignment 4 px and fitted 0.3 grey levels better, where the template
+        differs from itself 4 px away by 1.3: photos' dev split, `long` ascent). `discernible`: also not where that
+        difference is under the better fit's own residual (a featureless target fits as well wherever it is moved; the
+        fits then differ only by what covers them). Both poses carry the target's perspective (`shape`)."""
         shape = np.eye(3) if self.shape is None else self.shape
         t32 = self.reference.t32
         residuals = []
@@ -273,13 +273,15 @@ class Aligner:
         if k < 1:
             return False
         fit_a, fit_b = (float(np.mean(np.partition(r, k - 1)[:k])) for r in residuals)
-        if evidence == 0.0:
+        if evidence == 0.0 and not discernible:
             return fit_b >= fit_a
         # the template moved from A to B, in its own frame: what a misfit of that size looks like
         moved, inside = aligned_patch(t32, translate(np.linalg.solve(A_work @ shape, B_work @ shape), -self.t_origin),
                                       self.t_origin, (self.th, self.tw))
         d = np.abs(moved - t32)[inside]
         apart = float(np.mean(np.partition(d, min(k, d.size) - 1)[:k])) if d.size else 0.0
+        if discernible and apart < min(fit_a, fit_b):
+            return False
         return fit_b - fit_a >= evidence * apart
 
     def occlusion(self, work: np.ndarray, A_work: np.ndarray) -> float:
@@ -348,9 +350,8 @@ class Aligner:
                 and np.linalg.norm(m.center - c_prev) <= self.config.reinit_px)
 
     def lk(self, work: np.ndarray, A_work: np.ndarray) -> LKOutput | None:
-        """Plain feature LK from A_work on a crop around it, or None when the crop is too small
-        (target off the frame). With `normalise_lk_exposure` the crop is first divided by the exposure gain
-        measured at A_work (`exposure_at`)."""
+        """Plain feature LK from A_work on a crop around it, or None when the crop is too small (target off the frame).
+        With `normalise_lk_exposure` the crop is first divided by the exposure gain at A_work (`exposure_at`)."""
         W = A_work if self.shape is None else A_work @ self.shape
         x0, y0, x1, y1 = self.crop_box(apply(W, self.t_corners), work.shape)
         if x1 - x0 < MIN_CROP or y1 - y0 < MIN_CROP:

@@ -12,12 +12,10 @@ so the first frame that passes the gate is aligned again.
 Two changes to the paper in the predict path, both on by default and both measured (README, tracking benchmark;
 `background=False, colour_occlusion=False` is the paper's hybrid as published):
 - Predicting from the scene around the target (`background`, background.py): while the target is hidden the wall
-  around it usually is not, so the predict path first moves the target's last aligned pose by the similarity motion of
-  the surroundings since that frame. That measures the camera's motion, where the GRU can only extrapolate it
-  (hand-held tremor is not predictable over a 1.8 s occlusion). The GRU (or the configured predictor) takes over on
-  frames where the surroundings give no trustworthy motion (a person filling the whole view), continuing from the last
-  background-based positions. After such frames the chain would carry the predictor's error to the end of the
-  occlusion, so once the wall shows again the frame is measured against earlier aligned keyframes (`reanchor`).
+  around it usually is not, so the predict path moves the last aligned pose by the surroundings' motion since then, a
+  measurement of the camera's motion where the GRU only extrapolates it. The GRU takes over where the surroundings give
+  no trustworthy motion (a person filling the view); once the wall shows again the frame is measured against earlier
+  aligned keyframes (`reanchor`), not chained on from the predictor's guess.
 - OP_t over colour channels (`colour_occlusion`, occlusion.py): grey OP_t read a flag half under a brown sleeve clear.
 
 Built from parts (ViSP-style composition rather than inheritance): an `Aligner` (global match, feature LK, residual),
@@ -75,6 +73,7 @@ from hvs_sim.tracking.hybrid_config import (  # noqa: F401  (HybridConfig and it
     PREDICTED_CONFIDENCE,
     PULL_CHECK_OCC,
     PULL_CHECK_PX,
+    PULL_FAR_PX,
     PULL_RING_STEADY,
     REACQUIRE_AFTER,
     SURROUNDINGS_GUESSES,
@@ -182,16 +181,14 @@ class HybridTracker(Tracker):
 
     def _occlusion_measured(self, frame: np.ndarray, work: np.ndarray, A_work: np.ndarray) -> float:
         """OP_t at a work warp where nothing was measured yet: in grey on `work` unless in colour (_occlusion_at)."""
-        grey = None if self.colour_reference is not None else self.aligner.occlusion(work, A_work)
-        return self._occlusion_at(frame, A_work, grey)
+        return self._occlusion_at(frame, A_work, None if self.colour_reference else self.aligner.occlusion(work, A_work))
 
     def _verified(self, A: np.ndarray, m, work: np.ndarray | None = None) -> bool:
         """Whether an alignment may move the estimate there (HybridConfig.verify_reacquisition). A static target's
         far jump from where the surroundings put it must be unique and seen on several frames; a moving target's
         far jump from where its own motion puts it (the predictor) must be unique: a look-alike on repetitive
-        texture is no reason to leave the track. A static target's alignment far from the last estimate that the
-        surroundings' own motion in `work` carries it to is no jump: a camera that moves faster than reacquire_px a
-        frame (a servo's first steps: 10 px a frame) is followed, not refused until it is lost."""
+        texture is no reason to leave the track. An alignment where the surroundings' own motion in `work` carries the
+        last estimate is no jump: a camera faster than reacquire_px a frame (a servo's first steps) is followed."""
         c, st = self.hconfig, self.state
         if not c.verify_reacquisition:
             return True
@@ -302,19 +299,28 @@ class HybridTracker(Tracker):
         Robust LK still moved 0.8-1.7 px a frame towards a coat's edge over 2-14 % of the target, and the chain carried
         that through the coat's 3.5 s stay (photos' dev split, `long` ascent of seed 2027: 2.7 px at OP_t 0.18). The
         image decides as either can be wrong: the surroundings' hop can be the coat's (13 px); OP_t could not tell a
-        hand's 3.5 px pull on a smooth photo, nor a person wearing the target's picture (`camo`)."""
-        covered, c, al = occ > PULL_CHECK_OCC, self.hconfig, self.aligner
+        hand's 3.5 px pull on a smooth photo, nor a person wearing the target's picture (`camo`). With
+        `pull_check_carried` also after frames the surroundings carried a covered target, and a far miss must be one
+        the template can tell (HybridConfig)."""
+        covered, c, al, st = occ > PULL_CHECK_OCC, self.hconfig, self.aligner, self.state
+        # aligned on the frame before, or (`pull_check_carried`) a covered target the surroundings alone carried since:
+        # their pose is then chained over several hops, and only a miss over PULL_FAR_PX is told from their own error
+        carried = c.pull_check_carried and covered and st.drift_run == 0 and st.scene_held
+        if not (st.since_aligned == 0 or carried):
+            return False
         if not (c.pull_check and self.target_motion == "static" and (covered or c.pull_check_clear)
-                and self.state.since_aligned == 0 and self.scene_motion is not None):
+                and self.scene_motion is not None):
             return False
         if not covered and ring_steadiness(al, *self.scene_motion.key, work, al.to_work(A)) >= PULL_RING_STEADY:
             return False  # the surroundings moved with the alignment, and nothing came into them: no pull to look for
         found = self._surroundings_miss(A, work, quick=not covered)
-        if found is None or found[1] <= PULL_CHECK_PX:
+        if found is None or found[1] <= (PULL_CHECK_PX if st.since_aligned == 0 else PULL_FAR_PX):
             return False
         B = al.to_work(found[0])
         visible = 1.0 - max(occ, self._occlusion_measured(frame, work, B))
-        return not al.shows_clearly(work, al.to_work(A), B, visible, c.pull_evidence)
+        # far from their pose, the image speaks for the alignment only where the template tells the two poses apart
+        far = c.pull_check_carried and found[1] > PULL_FAR_PX
+        return not al.shows_clearly(work, al.to_work(A), B, visible, c.pull_evidence, discernible=far)
 
     def _surroundings_miss(self, A: np.ndarray, work: np.ndarray, quick: bool = False
                            ) -> tuple[np.ndarray, float] | None:
@@ -356,9 +362,8 @@ class HybridTracker(Tracker):
                           f"over {c.moving_px:g} px means moving)")
 
     def _unaligned_confidence(self, kind: Kind) -> float:
-        """Confidence of a pose not aligned on this frame: it halves every CONFIDENCE_HALF_LIFE frames
-        since the last alignment, and a guess of the predictor counts PREDICTED_CONFIDENCE of a
-        measurement of the scene (0 when lost is set by the base class)."""
+        """Confidence of a pose not aligned on this frame: it halves every CONFIDENCE_HALF_LIFE frames since the last
+        alignment, and a predictor's guess counts PREDICTED_CONFIDENCE of a measurement (0 when lost: base class)."""
         decay = 0.5 ** (self.state.since_aligned / CONFIDENCE_HALF_LIFE)
         return self.template_confidence * decay * (PREDICTED_CONFIDENCE if kind == Kind.PREDICTED else 1.0)
 
@@ -368,12 +373,10 @@ class HybridTracker(Tracker):
     def _reported(self, est: Estimate) -> Estimate:
         """The estimate as reported (HybridConfig.perspective). On an aligned frame with the target in full view
         (PERSPECTIVE_MAX_OCC), the similarity's correction A⁻¹·H to the homography Aligner.perspective measures there
-        (in the template's frame) joins the last PERSPECTIVE_HISTORY ones; the pose is reported with their median (of
-        where each puts the template's corners) until the next one. A view's tilt changes slowly, while an occluder
-        the occlusion test cannot see pulls one frame's refinement (a look-alike 3.4 px: photos' dev split, `camo`
-        ascent of seed 7). `lost` and a seed empty the history. With lk_perspective the first correction after that is
-        measured on the similarity alone, the next ones on S (Aligner.set_shape): until they outnumber it, the median
-        mixes the two, a transient of up to the first correction's own similarity (not corrected)."""
+        joins the last PERSPECTIVE_HISTORY ones; the pose is reported with their median (of where each puts the
+        template's corners): a view's tilt changes slowly, while an occluder OP_t cannot see pulls one frame's
+        refinement (photos' dev split, `camo`). `lost` and a seed empty the history; with lk_perspective the median
+        then mixes corrections measured on the similarity alone and on S (Aligner.set_shape) for a few frames."""
         if not self._perspective_on:
             return est
         if est.mode == Mode.LOST:
@@ -415,12 +418,10 @@ class HybridTracker(Tracker):
         gate = self.hconfig.occlusion_gate
         confident = m.score > 0 and (m.score >= self.config.match_threshold or (self.hconfig.continuity and is_current))
         if confident and (occ < gate or self.hconfig.gate_after_alignment):
-            # θ and s may continue the estimate's, last measured (aligned, or carried by the surroundings' motion)
-            # drift_run + 1 frames ago (the predictor's guesses carry neither); in a re-acquisition, which _verified
-            # checks by appearance, uniqueness and persistence, also the last alignment's, since_aligned + 1 frames
-            # ago: a measurement of the surroundings skewed by an occluder over them must not leave the target refused
-            # once it shows again (a fresh `pause`: the estimate scaled 12% with the arm held still). Not sooner: at
-            # dev `pause` seed 365 a person over the target was aligned 10 frames into the gap
+            # θ and s may continue the estimate's, measured drift_run + 1 frames ago (guesses carry neither); in a
+            # re-acquisition (_verified checks it) also the last alignment's, since_aligned + 1 frames ago: surroundings
+            # skewed by an occluder must not leave the target refused once it shows (a fresh `pause`: the estimate
+            # scaled 12 % with the arm held). Not sooner: at dev `pause` seed 365 a person was aligned 10 frames in
             reacquiring = self._reacquiring() and st.aligned_A is not None
             last = (al.to_work(st.aligned_A), st.since_aligned + 1) if reacquiring else None
             A_new = al.align(work, A_seed, al.to_work(st.A), frames=st.drift_run + 1, aligned=last).A_work

@@ -77,6 +77,9 @@ PERSPECTIVE_MAX_OCC = 0.1
 # in a quick hop (`pull_check_clear`), and taken for pulled where it lies over PULL_CHECK_PX from their pose
 PULL_CHECK_OCC = CLEAR_OP
 PULL_CHECK_PX = 1.0
+# ... and (`pull_check_carried`) a miss over this is no error of the surroundings' measurement: their hops missed a
+# hidden target by up to 1.5-2 px, chained over a few frames (pull_evidence below), twice the 2 px a frame is scored by
+PULL_FAR_PX = 4.0
 # ... and where OP_t reads the target clear (`pull_check_clear`), only where the ring of picture around it, from the
 # last alignment to this one, correlates under this (evidence.ring_steadiness): something came into the surroundings or
 # the alignment left them. On the photos' dev seed 61 it skipped 92 % of those checks and none that refused a pull
@@ -152,6 +155,13 @@ class HybridConfig:
     # alignment moved with them 4-5 px a frame (photos' dev split, `camo`). False: only where OP_t is over
     # PULL_CHECK_OCC (docs/results.md, `hybrid_covered_pull`)
     pull_check_clear: bool = True
+    # ... also on an alignment of a covered target after frames the surroundings alone carried it (none guessed), where
+    # it lies over PULL_FAR_PX from their pose; and a miss over PULL_FAR_PX counts as evidence for the alignment only
+    # where the template tells the two poses apart by more than the better fit's own residual (Aligner.shows_clearly's
+    # `discernible`): a featureless target shows as well 12 px to the side, and as a coat came over 58 % of it an
+    # alignment there was taken, and chained for 150 frames (photos' dev split, `long` ascent). False: only on the
+    # frame after an alignment, any better fit (docs/results.md, `hybrid_aligned_pull`)
+    pull_check_carried: bool = True
     # ... taken where the frame shows the template better at the alignment than at the surroundings' pose by more than
     # this share of what the template itself tells the two poses apart by (Aligner.shows_clearly; where the alignment
     # is right, about all of it). 0: any better fit. 0.5 refused a coat's 4 px pull on a smooth photo that fitted a
@@ -231,7 +241,7 @@ class HybridConfig:
             object.__setattr__(self, "lk_perspective", not self.deep.residual)
         check_flags(self, ("continuity", "colour_occlusion", "gate_after_alignment", "background", "reanchor",
                            "verify_reacquisition", "background_gate_continues", "background_gate_sway", "perspective",
-                           "pull_check", "pull_check_clear", "lk_perspective", "lookalike_drift", "context_check"))
+                           "pull_check", "pull_check_clear", "pull_check_carried", "lk_perspective", "lookalike_drift", "context_check"))
         check_number("pull_evidence", self.pull_evidence, 0.0, 1.0)
         check_number("context_agree", self.context_agree, -1.0, 1.0)
         if self.lk_perspective and self.deep.residual:

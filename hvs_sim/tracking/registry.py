@@ -93,6 +93,11 @@ TRACKERS: dict[str, TrackerSpec] = {
                                        "an alignment is checked against the surroundings only where OP_t says the "
                                        "target is partly covered, not also where it shows clear and the ring of "
                                        "picture around it changed", "#cedb9c"),
+    "hybrid_aligned_pull": TrackerSpec("hybrid", {"pull_check_carried": False},
+                                       "an alignment is checked against the surroundings only on the frame after an "
+                                       "alignment, not also after frames they carried a covered target, and any "
+                                       "better fit speaks for it however little the template tells the poses apart",
+                                       "#9e6b39"),
     "hybrid_clear_pull": TrackerSpec("hybrid", {"pull_evidence": 0.5},
                                      "an alignment the surroundings contradict is taken only where it fits the "
                                      "template clearly better than their pose, not wherever better", "#3182bd"),
