@@ -436,3 +436,31 @@ def test_with_a_look_alike_in_view_a_near_jump_is_not_put_down_to_the_surroundin
     assert tr._verified(near, match, work)
     st.guessed, unique["now"] = 0, True  # no look-alike in view: the allowance per frame since the alignment
     assert tr._verified(near, match, work)
+
+
+def test_an_alignment_keeps_the_scale_the_surroundings_carried_over_a_few_frames():
+    """HybridState.departs_in_scale (HybridConfig.carried_scale_step): after frames the surroundings alone carried the
+    estimate, an alignment 5 % off its scale departs and 1 % does not; not on the frame after an alignment, after a
+    predictor's guess, past `window` frames (a re-acquisition), or with the step 0 (`hybrid_free_scale`)."""
+    from hvs_sim.tracking.sources import HybridState
+    from hvs_sim.tracking.warp import similarity
+
+    centre = np.array([320.0, 240.0])
+    st = HybridState(center0=centre, corners0=np.zeros((4, 2)), A=similarity(3.0, -2.0, 0.01, 1.1),
+                     keyframe=(np.zeros((4, 4)), np.eye(3)))
+
+    def scaled(k: float) -> np.ndarray:  # the estimate's pose, its scale times k about the target's centre
+        return st.A @ similarity(*(centre - k * centre), 0.0, k)
+
+    step, window = make_tracker("hybrid").hconfig.carried_scale_step, 15
+    assert step == 0.02 and make_tracker("hybrid_free_scale").hconfig.carried_scale_step == 0.0
+    st.since_aligned = 2
+    assert st.departs_in_scale(scaled(1.05), step, window) and st.departs_in_scale(scaled(0.95), step, window)
+    assert not st.departs_in_scale(scaled(1.01), step, window)
+    assert not st.departs_in_scale(scaled(1.05), 0.0, window)
+    st.since_aligned = window
+    assert not st.departs_in_scale(scaled(1.05), step, window)
+    st.since_aligned, st.drift_run = 2, 1
+    assert not st.departs_in_scale(scaled(1.05), step, window)
+    st.since_aligned, st.drift_run = 0, 0
+    assert not st.departs_in_scale(scaled(1.05), step, window)

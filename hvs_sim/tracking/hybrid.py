@@ -160,8 +160,7 @@ class HybridTracker(Tracker):
             s.reset(self.state)
 
     def _seed(self, A: np.ndarray) -> None:
-        """The estimate moves to A; the motion sources start again from it (the keyframe stays the template's
-        image, where the identity holds)."""
+        """The estimate moves to A; the motion sources start again from it (the keyframe stays the template's)."""
         self.state.A = A.copy()
         self._perspectives.clear()  # measured on the target again before it is reported (_reported)
         self.aligner.set_shape(None)
@@ -184,14 +183,15 @@ class HybridTracker(Tracker):
         return self._occlusion_at(frame, A_work, None if self.colour_reference else self.aligner.occlusion(work, A_work))
 
     def _verified(self, A: np.ndarray, m, work: np.ndarray | None = None) -> bool:
-        """Whether an alignment may move the estimate there (HybridConfig.verify_reacquisition). A static target's
-        far jump from where the surroundings put it must be unique and seen on several frames; a moving target's
-        far jump from where its own motion puts it (the predictor) must be unique: a look-alike on repetitive
-        texture is no reason to leave the track. An alignment where the surroundings' own motion in `work` carries the
-        last estimate is no jump: a camera faster than reacquire_px a frame (a servo's first steps) is followed."""
+        """Whether an alignment may move the estimate there (HybridConfig.verify_reacquisition). A static target's far
+        jump from where the surroundings put it must be unique and seen on several frames, a moving target's from where
+        its own motion puts it unique: a look-alike on repetitive texture is no reason to leave the track. Where the
+        surroundings' motion in `work` carries the last estimate is no jump (a servo's first steps are followed)."""
         c, st = self.hconfig, self.state
         if not c.verify_reacquisition:
             return True
+        if self.target_motion == "static" and st.departs_in_scale(A, c.carried_scale_step, REACQUIRE_AFTER):
+            return False  # the surroundings carried the view's scale since the last alignment (carried_scale_step)
         unique = self._unique(A, m, work)
         if self._reacquiring():
             return self._reacquisition_verified(A, m, work, unique)

@@ -162,6 +162,13 @@ class HybridConfig:
     # alignment there was taken, and chained for 150 frames (photos' dev split, `long` ascent). False: only on the
     # frame after an alignment, any better fit (docs/results.md, `hybrid_aligned_pull`)
     pull_check_carried: bool = True
+    # a static target's alignment after 1 to REACQUIRE_AFTER - 1 frames the surroundings alone carried (none guessed)
+    # is not taken where its scale departs from the estimate's by over this share: over a few frames the surroundings
+    # measure the view's scale change. On the frame after an alignment the scale changed by 0.58 % at the 99th
+    # percentile (photos' dev split, seed 70's `clear` and `hand`, 1 343 alignments); an alignment on a repetitive roof
+    # 4.6 % under it was taken, and the template rectified at that scale matched nowhere for 150 frames. 0: off
+    # (docs/results.md, `hybrid_free_scale`)
+    carried_scale_step: float = 0.02
     # ... taken where the frame shows the template better at the alignment than at the surroundings' pose by more than
     # this share of what the template itself tells the two poses apart by (Aligner.shows_clearly; where the alignment
     # is right, about all of it). 0: any better fit. 0.5 refused a coat's 4 px pull on a smooth photo that fitted a
@@ -241,8 +248,10 @@ class HybridConfig:
             object.__setattr__(self, "lk_perspective", not self.deep.residual)
         check_flags(self, ("continuity", "colour_occlusion", "gate_after_alignment", "background", "reanchor",
                            "verify_reacquisition", "background_gate_continues", "background_gate_sway", "perspective",
-                           "pull_check", "pull_check_clear", "pull_check_carried", "lk_perspective", "lookalike_drift", "context_check"))
+                           "pull_check", "pull_check_clear", "pull_check_carried", "lk_perspective", "lookalike_drift",
+                           "context_check"))
         check_number("pull_evidence", self.pull_evidence, 0.0, 1.0)
+        check_number("carried_scale_step", self.carried_scale_step, 0.0, 1.0)
         check_number("context_agree", self.context_agree, -1.0, 1.0)
         if self.lk_perspective and self.deep.residual:
             raise ConfigError("lk_perspective=True cannot run with the residual regressor, which was trained on the "

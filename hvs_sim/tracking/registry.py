@@ -98,6 +98,10 @@ TRACKERS: dict[str, TrackerSpec] = {
                                        "alignment, not also after frames they carried a covered target, and any "
                                        "better fit speaks for it however little the template tells the poses apart",
                                        "#9e6b39"),
+    "hybrid_free_scale": TrackerSpec("hybrid", {"carried_scale_step": 0.0},
+                                     "an alignment after frames the surroundings carried may change the target's "
+                                     "scale by any amount up to max_scale_step, not only by what they carried",
+                                     "#a55194"),
     "hybrid_clear_pull": TrackerSpec("hybrid", {"pull_evidence": 0.5},
                                      "an alignment the surroundings contradict is taken only where it fits the "
                                      "template clearly better than their pose, not wherever better", "#3182bd"),
