@@ -180,7 +180,8 @@ class HybridTracker(Tracker):
 
     def _occlusion_measured(self, frame: np.ndarray, work: np.ndarray, A_work: np.ndarray) -> float:
         """OP_t at a work warp where nothing was measured yet: in grey on `work` unless in colour (_occlusion_at)."""
-        return self._occlusion_at(frame, A_work, None if self.colour_reference else self.aligner.occlusion(work, A_work))
+        grey = None if self.colour_reference is not None else self.aligner.occlusion(work, A_work)
+        return self._occlusion_at(frame, A_work, grey)
 
     def _verified(self, A: np.ndarray, m, work: np.ndarray | None = None) -> bool:
         """Whether an alignment may move the estimate there (HybridConfig.verify_reacquisition). A static target's far
@@ -305,8 +306,7 @@ class HybridTracker(Tracker):
         covered, c, al, st = occ > PULL_CHECK_OCC, self.hconfig, self.aligner, self.state
         # aligned on the frame before, or (`pull_check_carried`) a covered target the surroundings alone carried since:
         # their pose is then chained over several hops, and only a miss over PULL_FAR_PX is told from their own error
-        carried = c.pull_check_carried and covered and st.drift_run == 0 and st.scene_held
-        if not (st.since_aligned == 0 or carried):
+        if not (st.since_aligned == 0 or (c.pull_check_carried and covered and st.measured_only)):
             return False
         if not (c.pull_check and self.target_motion == "static" and (covered or c.pull_check_clear)
                 and self.scene_motion is not None):

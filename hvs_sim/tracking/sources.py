@@ -385,11 +385,17 @@ class HybridState:
         self.jump, self.jump_frames = offset, (self.jump_frames + 1 if agrees else 1)
         return self.jump_frames
 
+    @property
+    def measured_only(self) -> bool:
+        """Whether only this tracker's measurements (alignments, re-anchoring, the surroundings) moved the estimate
+        since it was last anchored: no predictor guess, no pose seeded from outside."""
+        return self.drift_run == 0 and self.scene_held
+
     def departs_in_scale(self, A: np.ndarray, step: float, window: int) -> bool:
         """Whether A's scale departs by over the share `step` from the estimate's, where the surroundings alone carried
-        the estimate (none guessed) for 1 to `window` - 1 frames since an alignment (HybridConfig.carried_scale_step;
+        the estimate (`measured_only`) for 1 to `window` - 1 frames since an alignment (HybridConfig.carried_scale_step;
         False with `step` 0). Not later: over a long gap an occluder over the surroundings can skew their scale."""
-        if step <= 0 or not (1 <= self.since_aligned < window and self.drift_run == 0 and self.scene_held):
+        if step <= 0 or not (1 <= self.since_aligned < window and self.measured_only):
             return False
         return bool(abs(matrix_to_pose(A, self.center0)[3] / matrix_to_pose(self.A, self.center0)[3] - 1) > step)
 
